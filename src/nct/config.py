@@ -1,0 +1,197 @@
+"""Hydra structured-config schema: one dataclass per config group, validated at start.
+
+Each YAML option under ``conf/<group>/`` extends its group's schema (``defaults: [<schema>]``),
+so a misspelt key or a value of the wrong type fails when the config is composed, naming the
+key. Range checks live in each dataclass's ``__post_init__`` and run in `validate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from nct.errors import InputError
+from nct.fields import ModelConf
+from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
+from nct.projector import FILTERS
+from nct.scanner import ImageGrid, Scanner
+from nct.stages import LossConf, TrainerConf
+
+
+@dataclass
+class SimulateConf:
+    """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless)."""
+
+    name: str = "simulate"
+    noise_i0: Optional[float] = None
+
+    def __post_init__(self) -> None:
+        if self.noise_i0 is not None and not self.noise_i0 > 0:
+            raise ValueError(f"data.noise_i0 must be > 0 (or null for no noise), got {self.noise_i0}")
+
+
+@dataclass
+class FileConf:
+    """A sinogram file in the documented ``.npz`` format; ``n_objects``: K, the objects to fit."""
+
+    name: str = "file"
+    path: str = MISSING
+    n_objects: int = 1
+
+    def __post_init__(self) -> None:
+        if self.n_objects < 1:
+            raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
+
+
+@dataclass
+class ScannerConf:
+    """Parallel-beam acquisition; ``bin_spacing`` null means image.extent / n_bins."""
+
+    name: str = "parallel"
+    views_per_rotation: int = 720
+    rotations: float = 1.0
+    rotation_time: float = 0.25
+    start_deg: float = 0.0
+    n_bins: int = 128
+    bin_spacing: Optional[float] = None
+
+    def __post_init__(self) -> None:
+        Scanner(self.views_per_rotation, self.rotations, self.rotation_time, 0.0, self.n_bins,
+                1.0 if self.bin_spacing is None else self.bin_spacing)
+
+    def build(self, extent: float) -> Scanner:
+        spacing = extent / self.n_bins if self.bin_spacing is None else self.bin_spacing
+        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time,
+                       float(self.start_deg) * 3.141592653589793 / 180.0, self.n_bins, spacing)
+
+
+@dataclass
+class ImageConf:
+    """Reconstruction grid (``size`` pixels a side over ``extent``) and output frames per rotation."""
+
+    size: int = 128
+    extent: float = 1.0
+    frames_per_rotation: int = 36
+
+    def __post_init__(self) -> None:
+        ImageGrid(self.size, self.extent)
+        if self.frames_per_rotation < 1:
+            raise ValueError(f"image.frames_per_rotation must be >= 1, got {self.frames_per_rotation}")
+
+    def build(self) -> ImageGrid:
+        return ImageGrid(self.size, self.extent)
+
+
+@dataclass
+class FBPConf:
+    """FBP frames: ``filter`` one of projector.FILTERS; ``window_deg`` 180 (shortest complete) or 360."""
+
+    filter: str = "ramp"
+    window_deg: float = 180.0
+
+    def __post_init__(self) -> None:
+        if self.filter not in FILTERS:
+            raise ValueError(f"fbp.filter must be one of {', '.join(FILTERS)}, got '{self.filter}'")
+        if not 0 < self.window_deg <= 360:
+            raise ValueError(f"fbp.window_deg must be in (0, 360], got {self.window_deg}")
+
+
+LOGGERS = ("tensorboard", "csv", "none")
+
+
+@dataclass
+class LoggerConf:
+    """Training logger: tensorboard, csv or none."""
+
+    name: str = "tensorboard"
+
+    def __post_init__(self) -> None:
+        if self.name not in LOGGERS:
+            raise ValueError(f"logger.name must be one of {', '.join(LOGGERS)}, got '{self.name}'")
+
+
+@dataclass
+class ExportConf:
+    """What a run writes besides metrics: TIFF stacks, PNG strip, GIF movie (``fps`` frames/s)."""
+
+    tiff: bool = True
+    png: bool = True
+    gif: bool = True
+    fps: float = 8.0
+    strip_frames: int = 8
+
+    def __post_init__(self) -> None:
+        if not self.fps > 0:
+            raise ValueError(f"export.fps must be > 0, got {self.fps}")
+        if self.strip_frames < 1:
+            raise ValueError(f"export.strip_frames must be >= 1, got {self.strip_frames}")
+
+
+@dataclass
+class NCTConf:
+    """The whole run. ``seed`` fixes every random source (0 is a seed like any other)."""
+
+    data: Any = MISSING
+    phantom: Any = MISSING
+    scanner: ScannerConf = field(default_factory=ScannerConf)
+    image: ImageConf = field(default_factory=ImageConf)
+    fbp: FBPConf = field(default_factory=FBPConf)
+    model: ModelConf = field(default_factory=ModelConf)
+    loss: LossConf = field(default_factory=LossConf)
+    trainer: TrainerConf = field(default_factory=TrainerConf)
+    logger: LoggerConf = field(default_factory=LoggerConf)
+    export: ExportConf = field(default_factory=ExportConf)
+    seed: int = 0
+    method: str = "nct"
+    resume: bool = False
+
+    def __post_init__(self) -> None:
+        if self.method not in ("nct", "fbp"):
+            raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
+
+
+SCHEMAS: dict[str, dict[str, type]] = {
+    "data": {"simulate": SimulateConf, "file": FileConf},
+    "phantom": {"circle": CircleConf, "heart": HeartConf, "letters": LettersConf,
+                "static": StaticConf, "composed": ComposedConf},
+    "scanner": {"parallel": ScannerConf},
+    "image": {"default": ImageConf},
+    "fbp": {"default": FBPConf},
+    "model": {"default": ModelConf},
+    "loss": {"default": LossConf},
+    "trainer": {"default": TrainerConf},
+    "logger": {"default": LoggerConf},
+}
+
+
+def register_configs() -> None:
+    """Store the schemas: ``nct_schema`` for the primary config, ``<group>/schema_<name>`` per option."""
+    cs = ConfigStore.instance()
+    cs.store(name="nct_schema", node=NCTConf)
+    for group, options in SCHEMAS.items():
+        for name, node in options.items():
+            cs.store(group=group, name=f"schema_{name}", node=node)
+
+
+def validate(cfg: DictConfig) -> NCTConf:
+    """Build the typed config, running every range check; raise `InputError` naming the key."""
+    try:
+        conf = OmegaConf.to_object(cfg)
+    except OmegaConfBaseException as err:
+        raise InputError(str(err).splitlines()[0] + _key_suffix(err)) from None
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    if not isinstance(conf, NCTConf):
+        raise InputError("the composed config is not an nct config (primary config must extend nct_schema)")
+    return conf
+
+
+def _key_suffix(err: OmegaConfBaseException) -> str:
+    key = getattr(err, "full_key", None)
+    return f" (key: {key})" if key and key not in str(err) else ""

@@ -1,0 +1,123 @@
+"""The sinogram file: one ``.npz`` written by every run and read by ``data=file``.
+
+Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians, ``times``
+[n_views] seconds (non-decreasing), ``bin_spacing`` scalar; optional ``source_distance``
+(fan beam, not yet supported), and for scoring ``truth`` [n_frames, H, W] with
+``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``).
+"""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from nct.errors import InputError
+from nct.sinogram import Sinogram, Truth
+
+REQUIRED = ("sinogram", "angles", "times", "bin_spacing")
+OPTIONAL = ("source_distance", "truth", "truth_times", "truth_extent", "truth_level")
+
+
+def save_sinogram(path: str | Path, sino: Sinogram) -> None:
+    """Write ``sino`` (and its truth, when present) in the documented ``.npz`` format."""
+    arrays: dict[str, np.ndarray] = {
+        "sinogram": np.asarray(sino.values, dtype=np.float32),
+        "angles": np.asarray(sino.angles, dtype=np.float64),
+        "times": np.asarray(sino.times, dtype=np.float64),
+        "bin_spacing": np.float64(sino.bin_spacing),
+    }
+    if sino.source_distance is not None:
+        arrays["source_distance"] = np.float64(sino.source_distance)
+    if sino.truth is not None:
+        arrays["truth"] = np.asarray(sino.truth.frames, dtype=np.float32)
+        arrays["truth_times"] = np.asarray(sino.truth.times, dtype=np.float64)
+        arrays["truth_extent"] = np.float64(sino.truth.extent)
+        arrays["truth_level"] = np.float64(sino.truth.level)
+    np.savez_compressed(Path(path), **arrays)
+
+
+def _fail(path: Path, key: str, expected: str, got: str) -> InputError:
+    return InputError(f"{path}: key '{key}': expected {expected}, got {got}")
+
+
+def _array(data, path: Path, key: str, ndim: int, length: int | None = None) -> np.ndarray:
+    a = np.asarray(data[key])
+    if not np.issubdtype(a.dtype, np.floating) and not np.issubdtype(a.dtype, np.integer):
+        raise _fail(path, key, "a real-valued array", f"dtype {a.dtype}")
+    if a.ndim != ndim:
+        raise _fail(path, key, f"{ndim}-D array", f"shape {a.shape}")
+    if length is not None and a.shape[0] != length:
+        raise _fail(path, key, f"length {length} (one per view/frame)", f"shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise _fail(path, key, "finite values", f"{int(np.size(a) - np.isfinite(a).sum())} NaN/inf")
+    return a
+
+
+def _scalar(data, path: Path, key: str, positive: bool = True) -> float:
+    a = np.asarray(data[key])
+    if a.size != 1 or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise _fail(path, key, "a real scalar", f"shape {a.shape} dtype {a.dtype}")
+    v = float(a.reshape(()))
+    if not np.isfinite(v) or (positive and v <= 0):
+        raise _fail(path, key, "a finite positive number", repr(v))
+    return v
+
+
+def load_sinogram(path: str | Path) -> Sinogram:
+    """Read and validate a sinogram file; raise `InputError` naming the first bad key."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"data.path: no such file: {path}")
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as err:
+        raise InputError(f"data.path: {path} is not a readable .npz file ({err})") from None
+    with data:
+        for key in REQUIRED:
+            if key not in data.files:
+                raise _fail(path, key, "present (required keys: " + ", ".join(REQUIRED) + ")", "missing")
+        unknown = sorted(set(data.files) - set(REQUIRED) - set(OPTIONAL))
+        if unknown:
+            raise _fail(path, unknown[0], "one of " + ", ".join(REQUIRED + OPTIONAL), "an unknown key")
+        values = _array(data, path, "sinogram", 2)
+        if values.dtype != np.float32:
+            raise _fail(path, "sinogram", "dtype float32", f"dtype {values.dtype}")
+        n_views = values.shape[0]
+        if n_views < 2 or values.shape[1] < 2:
+            raise _fail(path, "sinogram", "shape [n_views >= 2, n_bins >= 2]", f"shape {values.shape}")
+        angles = _array(data, path, "angles", 1, n_views).astype(np.float64)
+        times = _array(data, path, "times", 1, n_views).astype(np.float64)
+        if np.any(np.diff(times) < 0):
+            raise _fail(path, "times", "non-decreasing times", "times that go backwards")
+        bin_spacing = _scalar(data, path, "bin_spacing")
+        source_distance = _scalar(data, path, "source_distance") if "source_distance" in data.files else None
+        if source_distance is not None:
+            raise _fail(path, "source_distance", "absent (fan beam is not supported yet)", repr(source_distance))
+        truth = _load_truth(data, path)
+    return Sinogram(values, angles, times, bin_spacing, source_distance, truth)
+
+
+def _load_truth(data, path: Path) -> Truth | None:
+    if "truth" not in data.files:
+        for key in ("truth_times", "truth_extent", "truth_level"):
+            if key in data.files:
+                raise _fail(path, "truth", f"present when '{key}' is", "missing")
+        return None
+    frames = _array(data, path, "truth", 3)
+    for key in ("truth_times", "truth_extent"):
+        if key not in data.files:
+            raise _fail(path, key, "present when 'truth' is", "missing")
+    if frames.shape[1] != frames.shape[2]:
+        raise _fail(path, "truth", "square frames [n_frames, N, N]", f"shape {frames.shape}")
+    times = _array(data, path, "truth_times", 1, frames.shape[0]).astype(np.float64)
+    extent = _scalar(data, path, "truth_extent")
+    if "truth_level" in data.files:
+        level = _scalar(data, path, "truth_level")
+    else:
+        peak = float(frames.max())
+        if peak <= 0:
+            raise _fail(path, "truth", "some positive intensity (to set the Dice level)", "an all-zero truth")
+        level = 0.5 * peak
+    return Truth(frames.astype(np.float32), times, extent, level)

@@ -1,0 +1,174 @@
+"""One run, end to end: data -> FBP -> NeuralCT -> metrics -> files and TensorBoard.
+
+The run folder (see docs/ARCHITECTURE.md) always gets ``status.json``; a run that fails
+records its error there and leaves every other run's folder untouched.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from omegaconf import DictConfig
+
+from nct import export
+from nct.config import FileConf, NCTConf, validate
+from nct.errors import InputError
+from nct.io import load_sinogram, save_sinogram
+from nct.metrics import FrameMetrics, frame_metrics, summarise
+from nct.phantoms import build_phantom
+from nct.projector import fbp_frames
+from nct.scanner import ImageGrid
+from nct.simulate import simulate
+from nct.sinogram import Sinogram
+from nct.tracking import flat_hparams, write_run_summary
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Acquisition:
+    """What the reconstruction works from: the data, the output grid and the output frame times [F]."""
+
+    sino: Sinogram
+    grid: ImageGrid
+    frame_times: np.ndarray
+    n_objects: int
+
+
+def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
+    """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has one)."""
+    if isinstance(conf.data, FileConf):
+        sino = load_sinogram(conf.data.path)
+        if sino.truth is not None:
+            grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
+            return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
+        grid = conf.image.build()
+        span = float(np.ptp(sino.angles)) / (2 * math.pi)
+        n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))
+        edges = np.linspace(sino.times[0], sino.times[-1], n + 1)
+        return Acquisition(sino, grid, 0.5 * (edges[:-1] + edges[1:]), conf.data.n_objects)
+    scanner = conf.scanner.build(conf.image.extent)
+    grid = conf.image.build()
+    phantom = build_phantom(conf.phantom, scanner.rotation_time)
+    frame_times = scanner.frame_times(conf.image.frames_per_rotation)
+    sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
+    return Acquisition(sino, grid, frame_times, len(phantom.intensities))
+
+
+def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict]:
+    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name and extra metrics."""
+    frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
+    extra: dict = {}
+    if conf.method == "nct":
+        from nct.method import reconstruct
+
+        result = reconstruct(
+            acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
+            log_dir=None if conf.logger.name == "none" else out_dir, logger=conf.logger.name,
+            fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
+        )
+        frames["nct"] = result.frames
+        extra = {"heldout_loss": result.heldout_loss, "capacity": result.capacity, "stages": result.stages,
+                 "intensities": [float(a) for a in result.intensities]}
+    return frames, extra
+
+
+def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
+    """Do one run into ``out_dir``; return what goes into ``metrics.json``."""
+    import lightning
+
+    lightning.seed_everything(conf.seed, workers=True, verbose=False)
+    rng = np.random.default_rng(conf.seed)
+    t0 = time.perf_counter()
+    acq = acquire(conf, rng)
+    save_sinogram(out_dir / "sinogram.npz", acq.sino)
+    frames, extra = reconstruct_all(conf, acq, out_dir)
+    result: dict = {"times": acq.frame_times.tolist(), **extra}
+    scored: dict[str, FrameMetrics] = {}
+    if acq.sino.truth is not None:
+        truth = acq.sino.truth
+        scored = {name: frame_metrics(f, truth.frames, truth.level) for name, f in frames.items()}
+        result.update({name: summarise(m) for name, m in scored.items()})
+    result["wall_time_s"] = time.perf_counter() - t0
+    write_outputs(conf, cfg, acq, frames, scored, result, out_dir)
+    return result
+
+
+def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
+                  scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
+    """reconstruction.npz, TIFF stacks, PNG strip, GIF, metric plot and the TensorBoard summary."""
+    export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames)
+    shown = ({"truth": acq.sino.truth.frames} if acq.sino.truth is not None else {}) | frames
+    if conf.export.tiff:
+        export.save_tiffs(out_dir / "frames", shown)
+    if conf.export.png:
+        export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames)
+        if scored:
+            export.save_metric_plot(out_dir / "metrics.png", acq.frame_times, scored)
+    if conf.export.gif:
+        export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps)
+    if conf.logger.name == "tensorboard":
+        final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
+        final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
+        final["hp/wall_time_s"] = result["wall_time_s"]
+        write_run_summary(out_dir / "tb", flat_hparams(cfg), final, shown)
+
+
+def _write_json(path: Path, payload: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(payload, indent=2))
+    tmp.replace(path)
+
+
+def read_status(out_dir: Path) -> dict | None:
+    """The run's status.json, or None when the folder has none (never started)."""
+    path = out_dir / "status.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def run_job(cfg: DictConfig, out_dir: Path) -> float | None:
+    """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
+
+    With ``resume=true`` a folder that already holds a finished run is left as it is.
+    """
+    from nct.stages import DivergenceError
+
+    conf = validate(cfg)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    previous = read_status(out_dir)
+    if previous is not None and previous.get("status") == "ok":
+        if not conf.resume:
+            raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
+                             "or choose another output folder")
+        log.info("resume: %s already finished, skipped", out_dir)
+        return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
+    t0 = time.perf_counter()
+    _write_json(out_dir / "status.json", {"status": "running", "error": None, "wall_time_s": None})
+    try:
+        result = run(conf, cfg, out_dir)
+    except BaseException as err:
+        status = "diverged" if isinstance(err, DivergenceError) else "failed"
+        _write_json(out_dir / "status.json", {
+            "status": status, "error": f"{type(err).__name__}: {err}",
+            "traceback": traceback.format_exc(), "wall_time_s": time.perf_counter() - t0})
+        raise
+    _write_json(out_dir / "metrics.json", result)
+    _write_json(out_dir / "status.json", {"status": "ok", "error": None, "wall_time_s": result["wall_time_s"]})
+    _log_summary(result, out_dir)
+    return result.get("heldout_loss")
+
+
+def _log_summary(result: dict, out_dir: Path) -> None:
+    for name in ("fbp", "nct"):
+        if name in result:
+            s = result[name]
+            log.info("%s: median Dice %.3f, median MSE %.5f, frames Dice>0.85 %.0f%%", name.upper(),
+                     s["median_dice"], s["median_mse"], 100 * s["share_dice_gt_0.85"])
+    log.info("wall time %.1f s; outputs in %s", result["wall_time_s"], out_dir)

@@ -1,0 +1,280 @@
+"""Parallel-beam projector (differentiable, torch) and filtered backprojection.
+
+Geometry as in ``scanner.py``: s = x cos(theta) + y sin(theta), x right, y up, bin i at
+(i - (n - 1) / 2) * bin_spacing. Sinogram values are line integrals in physical units.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from functools import lru_cache
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from nct.scanner import ImageGrid
+from nct.sinogram import Sinogram
+
+FILTERS = ("ramp", "shepp-logan", "cosine", "hamming", "hann")
+
+# Backprojection works on chunks of views holding at most this many pixel samples (bounds memory).
+_CHUNK_SAMPLES = 2**22
+
+
+class Projector(nn.Module):
+    """Line integrals of square images by bilinear sampling along each ray (``grid_sample``).
+
+    Holds the fixed ray-sample offsets: ``bin_samples`` rays per bin (averaged) and samples every
+    ``ray_step`` (default: one pixel) along each ray across the whole field of view.
+    """
+
+    def __init__(
+        self,
+        size: int,
+        extent: float,
+        n_bins: int,
+        bin_spacing: float,
+        ray_step: float | None = None,
+        bin_samples: int = 1,
+    ) -> None:
+        super().__init__()
+        _check_geometry(size, extent, n_bins, bin_spacing, ray_step, bin_samples)
+        half = extent / 2
+        self.n_bins = n_bins
+        self.bin_samples = bin_samples
+        self.step = float(ray_step) if ray_step is not None else extent / size
+        sub = (torch.arange(bin_samples, dtype=torch.float64) + 0.5) / bin_samples - 0.5
+        bins = torch.arange(n_bins, dtype=torch.float64) - (n_bins - 1) / 2
+        s = ((bins[:, None] + sub[None, :]) * bin_spacing).reshape(-1)
+        # Rays cross at most the square's diagonal, plus the half pixel that bilinear sampling reaches.
+        reach = half * math.sqrt(2) + extent / size
+        n_u = math.ceil(2 * reach / self.step) + 1
+        u = (torch.arange(n_u, dtype=torch.float64) - (n_u - 1) / 2) * self.step
+        self.register_buffer("s_norm", s / half)
+        self.register_buffer("u_norm", u / half)
+
+    def forward(self, images: Tensor, angles: Tensor) -> Tensor:
+        """Project image b at angle b ([B,H,W], [B]) or one image at every angle ([H,W], [B]): [B, n_bins]."""
+        if images.ndim not in (2, 3) or images.shape[-1] != images.shape[-2]:
+            raise ValueError(f"images must be [B,H,W] or [H,W] with H == W, got shape {tuple(images.shape)}")
+        if angles.ndim != 1 or (images.ndim == 3 and angles.shape[0] != images.shape[0]):
+            raise ValueError(
+                f"angles must be [B] matching images [B,H,W], got {tuple(angles.shape)} for {tuple(images.shape)}"
+            )
+        s = self.s_norm.to(images)[:, None]
+        u = self.u_norm.to(images)
+        cos = torch.cos(angles).to(images)[:, None, None]
+        sin = torch.sin(angles).to(images)[:, None, None]
+        # Ray point p = s (cos, sin) + u (-sin, cos); grid_sample's y runs down the rows.
+        grid = torch.stack((s * cos - u * sin, -(s * sin + u * cos)), dim=-1)
+        n_views, n_s, n_u = grid.shape[:3]
+        if images.ndim == 2:
+            samples = F.grid_sample(
+                images[None, None], grid.reshape(1, n_views * n_s, n_u, 2), align_corners=False
+            )
+        else:
+            samples = F.grid_sample(images[:, None], grid, align_corners=False)
+        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_u).sum(dim=-1)
+        return sums.mean(dim=-1) * self.step
+
+
+@lru_cache(maxsize=16)
+def _projector(
+    size: int, extent: float, n_bins: int, bin_spacing: float, ray_step: float | None, bin_samples: int
+) -> Projector:
+    return Projector(size, extent, n_bins, bin_spacing, ray_step, bin_samples)
+
+
+def forward_project(
+    images: Tensor,
+    angles: Tensor,
+    extent: float,
+    n_bins: int,
+    bin_spacing: float,
+    ray_step: float | None = None,
+    bin_samples: int = 1,
+) -> Tensor:
+    """Differentiable line integrals: images [B,H,W] (or one [H,W]), angles [B] rad -> [B, n_bins].
+
+    Each image b is projected at its own angle b (one frame per view of a moving scene).
+    """
+    size = int(images.shape[-1])
+    return _projector(size, float(extent), int(n_bins), float(bin_spacing), ray_step, int(bin_samples))(
+        images, angles
+    )
+
+
+def filter_sinogram(values: Tensor, bin_spacing: float, filter: str = "ramp") -> Tensor:
+    """Ramp-filter every view (zero-padded, Ram-Lak kernel, apodised): [V, n_bins] -> [V, n_bins]."""
+    if filter not in FILTERS:
+        raise ValueError(f"fbp.filter must be one of {', '.join(FILTERS)}; got {filter!r}")
+    if values.ndim != 2:
+        raise ValueError(f"sinogram values must be [n_views, n_bins], got shape {tuple(values.shape)}")
+    n_bins = values.shape[1]
+    n_pad = 1 << max(1, math.ceil(math.log2(2 * n_bins)))
+    response = _filter_response(n_pad, filter, values.dtype, values.device) / bin_spacing
+    spectrum = torch.fft.rfft(values, n=n_pad, dim=1) * response
+    return torch.fft.irfft(spectrum, n=n_pad, dim=1)[:, :n_bins]
+
+
+def _filter_response(n_pad: int, filter: str, dtype: torch.dtype, device: torch.device) -> Tensor:
+    """Frequency response, per unit bin spacing, of the apodised Ram-Lak filter: [n_pad // 2 + 1]."""
+    k = torch.arange(n_pad, dtype=torch.float64, device=device)
+    k = torch.where(k > n_pad // 2, k - n_pad, k)
+    kernel = torch.where(k % 2 == 1, -1.0 / (math.pi * k) ** 2, torch.zeros_like(k))
+    kernel[0] = 0.25
+    ramp = torch.fft.rfft(kernel).real
+    nu = torch.fft.rfftfreq(n_pad, dtype=torch.float64, device=device)
+    windows = {
+        "ramp": torch.ones_like(nu),
+        "shepp-logan": torch.sinc(nu),
+        "cosine": torch.cos(math.pi * nu),
+        "hamming": 0.54 + 0.46 * torch.cos(2 * math.pi * nu),
+        "hann": 0.5 + 0.5 * torch.cos(2 * math.pi * nu),
+    }
+    return (ramp * windows[filter]).to(dtype)
+
+
+def backproject(
+    filtered: Tensor, angles: Tensor, weights: Tensor, grid: ImageGrid, bin_spacing: float
+) -> Tensor:
+    """Weighted sum of every view smeared back along its rays (linear in s): [V, n_bins] -> [H, W]."""
+    image = torch.zeros(grid.size, grid.size, dtype=filtered.dtype, device=filtered.device)
+    weighted = filtered * weights.to(filtered)[:, None]
+    for _, views in _view_backprojections(weighted, angles, grid, bin_spacing):
+        image += views.sum(dim=0)
+    return image
+
+
+def _view_backprojections(filtered: Tensor, angles: Tensor, grid: ImageGrid, bin_spacing: float):
+    """Yield (first view, [Vc, H, W]) backprojections of consecutive chunks of views, one image per view."""
+    n_views, n_bins = filtered.shape
+    x, y = (torch.from_numpy(c).to(filtered) for c in grid.xy())
+    chunk = max(1, _CHUNK_SAMPLES // grid.size**2)
+    # grid_sample on a [1, n_bins] strip: normalised coordinate 2 s / (n_bins * bin_spacing).
+    scale = 2.0 / (n_bins * bin_spacing)
+    for start in range(0, n_views, chunk):
+        theta = angles[start : start + chunk].to(filtered)[:, None, None]
+        s = (x * torch.cos(theta) + y * torch.sin(theta)) * scale
+        strip_grid = torch.stack((s, torch.zeros_like(s)), dim=-1)
+        strips = filtered[start : start + chunk, None, None, :]
+        yield start, F.grid_sample(strips, strip_grid, align_corners=False)[:, 0]
+
+
+def _view_weights(angles: np.ndarray) -> np.ndarray:
+    """Angular width of every view (midpoint rule; handles non-uniform spacing): [V] float64."""
+    if angles.ndim != 1 or angles.shape[0] < 2 or not np.all(np.isfinite(angles)):
+        raise ValueError(f"angles must be a finite 1-D array of >= 2 views, got shape {angles.shape}")
+    unwrapped = np.unwrap(angles)
+    steps = np.diff(unwrapped)
+    if not (np.all(steps > 0) or np.all(steps < 0)):
+        raise ValueError("angles must be strictly monotonic (views in acquisition order)")
+    return np.abs(np.gradient(unwrapped))
+
+
+def _half_turn_scale(coverage: np.ndarray | float) -> np.ndarray | float:
+    """Scale that brings data covering more than 180 degrees to the 180-degree normalisation."""
+    return math.pi / np.maximum(math.pi, coverage)
+
+
+def fbp(
+    values: np.ndarray | Tensor,
+    angles: np.ndarray | Tensor,
+    grid: ImageGrid,
+    bin_spacing: float,
+    filter: str = "ramp",
+) -> np.ndarray:
+    """Filtered backprojection of views spanning 180 or 360 degrees: values [V, n_bins] -> [H, W] f32."""
+    values_t = torch.as_tensor(values, dtype=torch.float32)
+    angles_np = np.asarray(angles.cpu() if isinstance(angles, Tensor) else angles, dtype=np.float64)
+    if values_t.ndim != 2 or values_t.shape[0] != angles_np.shape[0]:
+        raise ValueError(
+            f"values must be [n_views, n_bins] with one angle per view, got {tuple(values_t.shape)}"
+            f" and angles {angles_np.shape}"
+        )
+    weights = _view_weights(angles_np)
+    weights = weights * _half_turn_scale(weights.sum())
+    with torch.no_grad():
+        filtered = filter_sinogram(values_t, bin_spacing, filter)
+        image = backproject(filtered, torch.from_numpy(angles_np), torch.from_numpy(weights), grid, bin_spacing)
+    return image.numpy().astype(np.float32)
+
+
+def fbp_frames(
+    sino: Sinogram,
+    grid: ImageGrid,
+    times: np.ndarray,
+    window_deg: float = 180.0,
+    filter: str = "ramp",
+) -> np.ndarray:
+    """FBP at each time from the views spanning ``window_deg`` centred on the nearest view: [F, H, W] f32.
+
+    Windows are clamped inside the acquisition. Every view is filtered and backprojected once; a
+    window is the difference of two running sums over views.
+    """
+    if not 0 < window_deg <= 360:
+        raise ValueError(f"fbp.window_deg must be in (0, 360], got {window_deg}")
+    times = np.asarray(times, dtype=np.float64)
+    if times.ndim != 1 or not np.all(np.isfinite(times)):
+        raise ValueError(f"times must be a finite 1-D array, got shape {times.shape}")
+    weights = _view_weights(np.asarray(sino.angles, dtype=np.float64))
+    starts, ends = _windows(weights, np.asarray(sino.times, dtype=np.float64), times, math.radians(window_deg))
+    cumulative = np.concatenate(([0.0], np.cumsum(weights)))
+    scales = _half_turn_scale(cumulative[ends] - cumulative[starts])
+    with torch.no_grad():
+        filtered = filter_sinogram(torch.as_tensor(sino.values, dtype=torch.float32), sino.bin_spacing, filter)
+        weighted = filtered * torch.from_numpy(weights).float()[:, None]
+        frames = _window_sums(weighted, torch.as_tensor(np.asarray(sino.angles, dtype=np.float64)), grid, sino.bin_spacing, starts, ends)
+    return (frames * torch.from_numpy(scales).to(frames)[:, None, None]).numpy()
+
+
+def _windows(
+    weights: np.ndarray, view_times: np.ndarray, times: np.ndarray, span: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """First and one-past-last view of the window for every time: ([F], [F]) int.
+
+    The window covers ``span`` radians of gantry angle, centred on the view nearest in time,
+    shifted to stay inside the acquisition; all views when the acquisition covers less.
+    """
+    cumulative = np.concatenate(([0.0], np.cumsum(weights)))
+    n_views = weights.shape[0]
+    if cumulative[-1] < span - 0.5 * weights.min():
+        warnings.warn(
+            f"the acquisition covers {math.degrees(cumulative[-1]):.1f} deg of gantry angle, less than"
+            f" fbp.window_deg = {math.degrees(span):.1f}: every FBP frame uses all views",
+            stacklevel=3,
+        )
+        return np.zeros(times.shape, dtype=int), np.full(times.shape, n_views)
+    after = np.clip(np.searchsorted(view_times, times), 1, n_views - 1)
+    nearest = np.where(times - view_times[after - 1] <= view_times[after] - times, after - 1, after)
+    centre = cumulative[nearest] + weights[nearest] / 2
+    low = np.clip(centre - span / 2, 0.0, cumulative[-1] - span)
+    index = np.arange(n_views + 1)
+    # Round half up (with slack for float error) so even-length windows shift consistently.
+    starts = np.floor(np.interp(low, cumulative, index) + 0.5 + 1e-6).astype(int)
+    ends = np.floor(np.interp(cumulative[starts] + span, cumulative, index) + 0.5 + 1e-6).astype(int)
+    return starts, np.minimum(ends, n_views)
+
+
+def _window_sums(
+    weighted: Tensor, angles: Tensor, grid: ImageGrid, bin_spacing: float, starts: np.ndarray, ends: np.ndarray
+) -> Tensor:
+    """Sum of view backprojections over [start, end) for every window: [F, H, W].
+
+    A running sum over views (float64) is recorded at window boundaries, chunk by chunk.
+    """
+    frames = torch.zeros(len(starts), grid.size, grid.size, dtype=weighted.dtype)
+    running = torch.zeros(grid.size, grid.size, dtype=torch.float64)
+    starts_t, ends_t = torch.from_numpy(starts), torch.from_numpy(ends)
+    for first, views in _view_backprojections(weighted, angles, grid, bin_spacing):
+        # partial[k] is the sum over views [0, first + k + 1).
+        partial = running + torch.cumsum(views.double(), dim=0)
+        last = first + views.shape[0]
+        for bounds, sign in ((ends_t, 1.0), (starts_t, -1.0)):
+            hit = torch.nonzero((bounds > first) & (bounds <= last)).squeeze(1)
+            frames.index_add_(0, hit, partial[bounds[hit] - first - 1].to(frames), alpha=sign)
+        running = partial[-1]
+    return frames
