@@ -40,3 +40,7 @@ def main() -> None:
         sys.exit(f"nct: error: config folder {CONFIG_DIR} not found: install nct from a source checkout "
                  "(pip install -e .)")
     app()
+
+
+if __name__ == "__main__":
+    main()

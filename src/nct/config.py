@@ -194,4 +194,4 @@ def validate(cfg: DictConfig) -> NCTConf:
 
 def _key_suffix(err: OmegaConfBaseException) -> str:
     key = getattr(err, "full_key", None)
-    return f" (key: {key})" if key and key not in str(err) else ""
+    return f" (key: {key})" if key and f"{key} " not in str(err).splitlines()[0] + " " else ""

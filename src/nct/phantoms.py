@@ -70,6 +70,22 @@ class EllipseConf:
     intensity: Signal = field(default_factory=lambda: Signal(value=1.0))
 
 
+EllipseParams = Callable[[np.ndarray], np.ndarray]
+_KEYS = ("x", "y", "a", "b", "angle_deg", "intensity")
+
+
+def _signal_params(objects: list[EllipseConf]) -> EllipseParams:
+    """Ellipse parameters from Signals: τ [T] -> [T, K, 6] (x, y, a, b, angle rad, intensity)."""
+
+    def params(tau: np.ndarray) -> np.ndarray:
+        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
+        out = np.stack([np.stack([getattr(o, k).at(tau) for k in _KEYS], axis=-1) for o in objects], axis=1)
+        out[..., 4] = np.deg2rad(out[..., 4])
+        return out
+
+    return params
+
+
 @dataclass
 class CircleConf:
     """Paper Fig. 2: a disc on a circular orbit about the FOV centre, travelling
@@ -91,7 +107,7 @@ class CircleConf:
         _require(reach <= FOV_RADIUS, "radius + phantom.orbit_radius",
                  f"<= {FOV_RADIUS} (inside the field of view's inscribed circle)", reach)
 
-    def objects(self) -> list[EllipseConf]:
+    def ellipse_objects(self) -> list[EllipseConf]:
         cycles = self.displacement_deg / 360.0
         return [EllipseConf(
             x=Signal(amplitude=self.orbit_radius, cycles_per_rotation=cycles, phase_deg=self.start_deg + 90.0),
@@ -147,7 +163,8 @@ class LettersConf:
         _require(self.rotations > 0, "rotations", "> 0", self.rotations)
         _require(self.intensity > 0, "intensity", "> 0", self.intensity)
         for char in self.sequence:
-            _require(bool(_glyph_polygons(char)), "sequence", "letters with a visible glyph", repr(self.sequence))
+            visible = char.isprintable() and not char.isspace() and bool(_glyph_polygons(char))
+            _require(visible, "sequence", "letters with a visible glyph", repr(self.sequence))
         reach = max(_glyph_reach(char, self.glyph_size) for char in self.sequence)
         _require(reach <= FOV_RADIUS, "glyph_size",
                  f"small enough for every glyph to stay within {FOV_RADIUS} of the centre", f"{self.glyph_size} "
@@ -166,7 +183,7 @@ class StaticConf:
         _require(self.large_intensity > 0, "large_intensity", "> 0", self.large_intensity)
         _require(self.small_intensity > 0, "small_intensity", "> 0", self.small_intensity)
 
-    def objects(self) -> list[EllipseConf]:
+    def ellipse_objects(self) -> list[EllipseConf]:
         return [
             EllipseConf(x=Signal(-0.10), y=Signal(0.05), a=Signal(0.22), b=Signal(0.13), angle_deg=Signal(30.0),
                         intensity=Signal(self.large_intensity)),
@@ -176,9 +193,11 @@ class StaticConf:
 
 
 def _default_composed() -> list[EllipseConf]:
+    """An ellipse turning 90 degrees per rotation and, clear of its tip, a fainter disc that bobs
+    up and down once and pulses twice per rotation."""
     return [
         EllipseConf(a=Signal(0.25), b=Signal(0.12), angle_deg=Signal(rate=90.0)),
-        EllipseConf(x=Signal(0.3), y=Signal(amplitude=0.1, cycles_per_rotation=1.0),
+        EllipseConf(x=Signal(0.34), y=Signal(amplitude=0.1, cycles_per_rotation=1.0),
                     a=Signal(0.06, amplitude=0.02, cycles_per_rotation=2.0), b=Signal(0.06, amplitude=0.02,
                     cycles_per_rotation=2.0), intensity=Signal(0.6)),
     ]
@@ -208,6 +227,9 @@ class ComposedConf:
                      f"inside the FOV's inscribed circle (|centre| + max(a, b) <= {FOV_RADIUS}) throughout the scan",
                      f"{reach:.4g}")
 
+    def ellipse_objects(self) -> list[EllipseConf]:
+        return list(self.objects)
+
 
 PhantomConf = CircleConf | HeartConf | LettersConf | StaticConf | ComposedConf
 
@@ -226,7 +248,7 @@ class Phantom(ABC):
 
     def frames(self, times: np.ndarray, grid: ImageGrid, supersample: int = 4) -> np.ndarray:
         """`image` at each of ``times`` [F]: [F, H, W] float32."""
-        return np.stack([self.image(float(t), grid, supersample) for t in np.asarray(times)]).astype(np.float32)
+        return np.stack([self.image(float(t), grid, supersample) for t in np.asarray(times)])
 
     @abstractmethod
     def project(self, scanner: Scanner, grid: ImageGrid) -> np.ndarray:
@@ -248,22 +270,6 @@ def _bin_edges(scanner: Scanner) -> np.ndarray:
     """Edges of the detector bins: [n_bins + 1]."""
     half = scanner.bin_spacing / 2
     return np.append(scanner.bin_positions - half, scanner.bin_positions[-1] + half)
-
-
-EllipseParams = Callable[[np.ndarray], np.ndarray]
-_KEYS = ("x", "y", "a", "b", "angle_deg", "intensity")
-
-
-def _signal_params(objects: list[EllipseConf]) -> EllipseParams:
-    """Ellipse parameters from Signals: τ [T] -> [T, K, 6] (x, y, a, b, angle rad, intensity)."""
-
-    def params(tau: np.ndarray) -> np.ndarray:
-        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
-        out = np.stack([np.stack([getattr(o, k).at(tau) for k in _KEYS], axis=-1) for o in objects], axis=1)
-        out[..., 4] = np.deg2rad(out[..., 4])
-        return out
-
-    return params
 
 
 def heart_waveform(phase: np.ndarray, waveform: str) -> np.ndarray:
@@ -310,7 +316,7 @@ class EllipsePhantom(Phantom):
 
     def ellipses(self, times: np.ndarray, extent: float = 1.0) -> np.ndarray:
         """Ellipse parameters at ``times`` (s) [T] with lengths scaled by ``extent``: [T, K, 6]."""
-        p = self._params(np.asarray(times, dtype=np.float64) / self.rotation_time).copy()
+        p = self._params(np.asarray(times, dtype=np.float64) / self.rotation_time)
         p[..., :4] *= extent
         return p
 
@@ -331,9 +337,8 @@ class EllipsePhantom(Phantom):
         theta = scanner.angles[:, None]
         edges = _bin_edges(scanner)[None, :]
         sino = np.zeros((scanner.n_views, scanner.n_bins))
-        for cx, cy, a, b, angle, intensity in self.ellipses(scanner.times, grid.extent).transpose(1, 2, 0):
-            cols = [c[:, None] for c in (cx, cy, a, b, angle, intensity)]
-            cx, cy, a, b, angle, intensity = cols
+        for obj in self.ellipses(scanner.times, grid.extent).transpose(1, 2, 0):
+            cx, cy, a, b, angle, intensity = obj[:, :, None]
             h = np.sqrt((a * np.cos(theta - angle)) ** 2 + (b * np.sin(theta - angle)) ** 2)
             s = np.clip(edges - (cx * np.cos(theta) + cy * np.sin(theta)), -h, h)
             antiderivative = s * np.sqrt(np.maximum(h * h - s * s, 0.0)) + h * h * np.arcsin(s / h)
@@ -363,7 +368,7 @@ def _glyph_reach(char: str, glyph_size: float) -> float:
     return float(max(np.hypot(*((p + offset) * scale).T).max() for p in _glyph_polygons(char)))
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=4)
 def _glyph_sdfs(chars: str, glyph_size: float, size: int) -> np.ndarray:
     """Signed distance (fine pixels, positive inside) of each glyph on a size² grid of unit
     extent, rows y-down: [len(chars), size, size] float32. Holes by the even-odd rule."""
@@ -401,13 +406,15 @@ class LetterPhantom(Phantom):
         return (np.arange(len(self.conf.sequence)) * (hold + morph) + hold / 2) * self.rotation_time
 
     def state(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Letter index k [T] int and blend weight w [T] toward letter k+1 at ``times`` (s) [T]."""
+        """Letter index k [T] int and eased blend weight w [T] toward letter k+1 at ``times`` (s) [T];
+        the first letter holds before 0 and the last after the scene's span."""
         hold, morph = self._durations()
         last = len(self.conf.sequence) - 1
         tau = np.clip(np.asarray(times, dtype=np.float64) / self.rotation_time, 0.0, self.conf.rotations)
-        k = np.minimum(np.floor(tau / (hold + morph)).astype(int), last) if last else np.zeros(tau.shape, int)
-        into = tau - k * (hold + morph) - hold
-        w = np.where((k < last) & (into > 0), np.clip(into / morph if morph else 0.0, 0.0, 1.0), 0.0)
+        if last == 0:
+            return np.zeros(tau.shape, dtype=int), np.zeros(tau.shape)
+        k = np.minimum(np.floor(tau / (hold + morph)).astype(int), last)
+        w = np.clip((tau - k * (hold + morph) - hold) / morph, 0.0, 1.0)
         return k, (1 - np.cos(math.pi * w)) / 2
 
     def _sdfs(self, size: int) -> np.ndarray:
@@ -417,6 +424,7 @@ class LetterPhantom(Phantom):
         return sdfs[[chars.index(c) for c in self.conf.sequence]]
 
     def _fine_mask(self, k: int, w: float, sdfs: np.ndarray) -> np.ndarray:
+        """Occupancy of letter k blended toward k+1 by w (w = 0 also serves the last letter)."""
         if w == 0.0:
             return sdfs[k] > 0
         return (1 - w) * sdfs[k] + w * sdfs[k + 1] > 0
@@ -464,7 +472,7 @@ def build_phantom(conf: PhantomConf, rotation_time: float) -> Phantom:
     if isinstance(conf, HeartConf):
         return EllipsePhantom(_heart_params(conf), (float(conf.intensity),), rotation_time)
     if isinstance(conf, (CircleConf, StaticConf, ComposedConf)):
-        objects = conf.objects() if callable(conf.objects) else conf.objects
+        objects = conf.ellipse_objects()
         return EllipsePhantom(_signal_params(objects), tuple(float(o.intensity.value) for o in objects),
                               rotation_time)
     raise ValueError(f"phantom must be one of circle, heart, letters, static, composed, got {type(conf).__name__}")

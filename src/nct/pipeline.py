@@ -19,7 +19,7 @@ from omegaconf import DictConfig
 
 from nct import export
 from nct.config import FileConf, NCTConf, validate
-from nct.errors import InputError
+from nct.errors import DivergenceError, InputError
 from nct.io import load_sinogram, save_sinogram
 from nct.metrics import FrameMetrics, frame_metrics, summarise
 from nct.phantoms import build_phantom
@@ -138,8 +138,6 @@ def run_job(cfg: DictConfig, out_dir: Path) -> float | None:
 
     With ``resume=true`` a folder that already holds a finished run is left as it is.
     """
-    from nct.stages import DivergenceError
-
     conf = validate(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
     previous = read_status(out_dir)

@@ -1,0 +1,41 @@
+"""Shared fixtures: the real Hydra config, composed in-process and shrunk to tiny sizes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from omegaconf import DictConfig
+
+from nct.cli import CONFIG_DIR
+
+TINY = [
+    "image.size=32",
+    "image.frames_per_rotation=6",
+    "scanner.views_per_rotation=60",
+    "scanner.n_bins=32",
+    "trainer.init_steps=5",
+    "trainer.fit_steps=5",
+    "trainer.refine=false",
+    "export.strip_frames=3",
+]
+
+
+def compose_config(overrides: list[str]) -> DictConfig:
+    """The primary config with ``overrides``, as ``nct`` would compose it."""
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
+        return compose(config_name="config", overrides=overrides)
+
+
+@pytest.fixture
+def tiny_cfg():
+    """A factory: tiny config with extra overrides."""
+    return lambda *extra: compose_config(TINY + list(extra))
+
+
+@pytest.fixture
+def run_dir(tmp_path: Path) -> Path:
+    return tmp_path / "run"
