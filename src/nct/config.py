@@ -171,12 +171,15 @@ SCHEMAS: dict[str, dict[str, type]] = {
 
 
 def register_configs() -> None:
-    """Store the schemas: ``nct_schema`` for the primary config, ``<group>/schema_<name>`` per option."""
+    """Store the schemas: ``nct_schema`` for the primary config, ``schema/<group>/<name>`` per option.
+
+    An option extends its schema with ``defaults: [/schema/<group>/<name>@_here_]``.
+    """
     cs = ConfigStore.instance()
     cs.store(name="nct_schema", node=NCTConf)
     for group, options in SCHEMAS.items():
         for name, node in options.items():
-            cs.store(group=group, name=f"schema_{name}", node=node)
+            cs.store(group=f"schema/{group}", name=name, node=node)
 
 
 def validate(cfg: DictConfig) -> NCTConf:
