@@ -64,12 +64,14 @@ class Projector(nn.Module):
             raise ValueError(
                 f"angles must be [B] matching images [B,H,W], got {tuple(angles.shape)} for {tuple(images.shape)}"
             )
-        s = self.s_norm.to(images)[:, None]
+        s = self.s_norm.to(images)
         u = self.u_norm.to(images)
-        cos = torch.cos(angles).to(images)[:, None, None]
-        sin = torch.sin(angles).to(images)[:, None, None]
+        cos = torch.cos(angles).to(images)[:, None]
+        sin = torch.sin(angles).to(images)[:, None]
         # Ray point p = s (cos, sin) + u (-sin, cos); grid_sample's y runs down the rows.
-        grid = torch.stack((s * cos - u * sin, -(s * sin + u * cos)), dim=-1)
+        grid = images.new_empty(angles.shape[0], s.shape[0], u.shape[0], 2)
+        torch.sub((s * cos)[:, :, None], (u * sin)[:, None, :], out=grid[..., 0])
+        torch.add((s * sin)[:, :, None], (u * cos)[:, None, :], out=grid[..., 1]).neg_()
         n_views, n_s, n_u = grid.shape[:3]
         if images.ndim == 2:
             samples = F.grid_sample(
@@ -79,6 +81,25 @@ class Projector(nn.Module):
             samples = F.grid_sample(images[:, None], grid, align_corners=False)
         sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_u).sum(dim=-1)
         return sums.mean(dim=-1) * self.step
+
+
+def _check_geometry(
+    size: int, extent: float, n_bins: int, bin_spacing: float, ray_step: float | None, bin_samples: int
+) -> None:
+    checks = {
+        "size (image pixels a side) must be >= 2": size >= 2,
+        "extent must be > 0": extent > 0,
+        "n_bins must be >= 1": n_bins >= 1,
+        "bin_spacing must be > 0": bin_spacing > 0,
+        "ray_step must be None or > 0": ray_step is None or ray_step > 0,
+        "bin_samples must be >= 1": bin_samples >= 1,
+    }
+    failed = [rule for rule, ok in checks.items() if not ok]
+    if failed:
+        raise ValueError(
+            f"projector: {'; '.join(failed)} (got size={size}, extent={extent}, n_bins={n_bins},"
+            f" bin_spacing={bin_spacing}, ray_step={ray_step}, bin_samples={bin_samples})"
+        )
 
 
 @lru_cache(maxsize=16)
@@ -99,7 +120,8 @@ def forward_project(
 ) -> Tensor:
     """Differentiable line integrals: images [B,H,W] (or one [H,W]), angles [B] rad -> [B, n_bins].
 
-    Each image b is projected at its own angle b (one frame per view of a moving scene).
+    Each image b is projected at its own angle b (one frame per view of a moving scene); images
+    cover ``extent`` a side. ``ray_step`` / ``bin_samples``: see ``Projector``.
     """
     size = int(images.shape[-1])
     return _projector(size, float(extent), int(n_bins), float(bin_spacing), ray_step, int(bin_samples))(
@@ -113,6 +135,8 @@ def filter_sinogram(values: Tensor, bin_spacing: float, filter: str = "ramp") ->
         raise ValueError(f"fbp.filter must be one of {', '.join(FILTERS)}; got {filter!r}")
     if values.ndim != 2:
         raise ValueError(f"sinogram values must be [n_views, n_bins], got shape {tuple(values.shape)}")
+    if not bin_spacing > 0:
+        raise ValueError(f"bin_spacing must be > 0, got {bin_spacing}")
     n_bins = values.shape[1]
     n_pad = 1 << max(1, math.ceil(math.log2(2 * n_bins)))
     response = _filter_response(n_pad, filter, values.dtype, values.device) / bin_spacing
@@ -152,16 +176,21 @@ def backproject(
 def _view_backprojections(filtered: Tensor, angles: Tensor, grid: ImageGrid, bin_spacing: float):
     """Yield (first view, [Vc, H, W]) backprojections of consecutive chunks of views, one image per view."""
     n_views, n_bins = filtered.shape
-    x, y = (torch.from_numpy(c).to(filtered) for c in grid.xy())
-    chunk = max(1, _CHUNK_SAMPLES // grid.size**2)
+    x, y = grid.xy()
     # grid_sample on a [1, n_bins] strip: normalised coordinate 2 s / (n_bins * bin_spacing).
     scale = 2.0 / (n_bins * bin_spacing)
+    cols = torch.from_numpy(x[0] * scale).to(filtered)
+    rows = torch.from_numpy(y[:, 0] * scale).to(filtered)
+    chunk = max(1, _CHUNK_SAMPLES // grid.size**2)
+    # One sampling grid reused by every chunk; its second (row) coordinate stays 0.
+    strip_grid = filtered.new_zeros(min(chunk, n_views), grid.size, grid.size, 2)
     for start in range(0, n_views, chunk):
-        theta = angles[start : start + chunk].to(filtered)[:, None, None]
-        s = (x * torch.cos(theta) + y * torch.sin(theta)) * scale
-        strip_grid = torch.stack((s, torch.zeros_like(s)), dim=-1)
+        theta = angles[start : start + chunk].to(filtered)[:, None]
+        sample_at = strip_grid[: theta.shape[0]]
+        along_cols, along_rows = cols * torch.cos(theta), rows * torch.sin(theta)
+        torch.add(along_cols[:, None, :], along_rows[:, :, None], out=sample_at[..., 0])
         strips = filtered[start : start + chunk, None, None, :]
-        yield start, F.grid_sample(strips, strip_grid, align_corners=False)[:, 0]
+        yield start, F.grid_sample(strips, sample_at, align_corners=False)[:, 0]
 
 
 def _view_weights(angles: np.ndarray) -> np.ndarray:
@@ -221,25 +250,27 @@ def fbp_frames(
     if times.ndim != 1 or not np.all(np.isfinite(times)):
         raise ValueError(f"times must be a finite 1-D array, got shape {times.shape}")
     weights = _view_weights(np.asarray(sino.angles, dtype=np.float64))
-    starts, ends = _windows(weights, np.asarray(sino.times, dtype=np.float64), times, math.radians(window_deg))
     cumulative = np.concatenate(([0.0], np.cumsum(weights)))
+    starts, ends = _windows(cumulative, np.asarray(sino.times, dtype=np.float64), times, math.radians(window_deg))
     scales = _half_turn_scale(cumulative[ends] - cumulative[starts])
     with torch.no_grad():
         filtered = filter_sinogram(torch.as_tensor(sino.values, dtype=torch.float32), sino.bin_spacing, filter)
         weighted = filtered * torch.from_numpy(weights).float()[:, None]
-        frames = _window_sums(weighted, torch.as_tensor(np.asarray(sino.angles, dtype=np.float64)), grid, sino.bin_spacing, starts, ends)
+        angles = torch.as_tensor(np.asarray(sino.angles, dtype=np.float64))
+        frames = _window_sums(weighted, angles, grid, sino.bin_spacing, starts, ends)
     return (frames * torch.from_numpy(scales).to(frames)[:, None, None]).numpy()
 
 
 def _windows(
-    weights: np.ndarray, view_times: np.ndarray, times: np.ndarray, span: float
+    cumulative: np.ndarray, view_times: np.ndarray, times: np.ndarray, span: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """First and one-past-last view of the window for every time: ([F], [F]) int.
 
-    The window covers ``span`` radians of gantry angle, centred on the view nearest in time,
-    shifted to stay inside the acquisition; all views when the acquisition covers less.
+    ``cumulative`` [V + 1] is the angle covered by views [0, v). The window covers ``span``
+    radians, centred on the view nearest in time, shifted to stay inside the acquisition;
+    all views when the acquisition covers less.
     """
-    cumulative = np.concatenate(([0.0], np.cumsum(weights)))
+    weights = np.diff(cumulative)
     n_views = weights.shape[0]
     if cumulative[-1] < span - 0.5 * weights.min():
         warnings.warn(
@@ -262,19 +293,23 @@ def _windows(
 def _window_sums(
     weighted: Tensor, angles: Tensor, grid: ImageGrid, bin_spacing: float, starts: np.ndarray, ends: np.ndarray
 ) -> Tensor:
-    """Sum of view backprojections over [start, end) for every window: [F, H, W].
+    """Sum of view backprojections over views [start, end) for every window: [F, H, W].
 
-    A running sum over views (float64) is recorded at window boundaries, chunk by chunk.
+    Chunk by chunk, views are summed between consecutive window boundaries; a running float64
+    sum of those segments gives the prefix sum at each boundary, added to or taken from its frames.
     """
-    frames = torch.zeros(len(starts), grid.size, grid.size, dtype=weighted.dtype)
-    running = torch.zeros(grid.size, grid.size, dtype=torch.float64)
-    starts_t, ends_t = torch.from_numpy(starts), torch.from_numpy(ends)
+    frames = weighted.new_zeros(len(starts), grid.size, grid.size)
+    running = torch.zeros(grid.size * grid.size, dtype=torch.float64)
+    bounds = np.unique(np.concatenate((starts, ends)))
     for first, views in _view_backprojections(weighted, angles, grid, bin_spacing):
-        # partial[k] is the sum over views [0, first + k + 1).
-        partial = running + torch.cumsum(views.double(), dim=0)
         last = first + views.shape[0]
-        for bounds, sign in ((ends_t, 1.0), (starts_t, -1.0)):
-            hit = torch.nonzero((bounds > first) & (bounds <= last)).squeeze(1)
-            frames.index_add_(0, hit, partial[bounds[hit] - first - 1].to(frames), alpha=sign)
-        running = partial[-1]
+        local = np.union1d(bounds[(bounds > first) & (bounds < last)], [last])
+        # prefix[j] sums views [0, local[j]): this chunk's share by a 0/1 matrix product.
+        include = torch.from_numpy(np.arange(first, last)[None, :] < local[:, None]).to(views)
+        prefix = running + (include @ views.reshape(views.shape[0], -1)).double()
+        for frame_bounds, sign in ((ends, 1.0), (starts, -1.0)):
+            hit = np.flatnonzero((frame_bounds > first) & (frame_bounds <= last))
+            at = np.searchsorted(local, frame_bounds[hit])
+            frames[hit] += sign * prefix[at].to(frames).reshape(-1, grid.size, grid.size)
+        running = prefix[-1]
     return frames
