@@ -89,3 +89,18 @@ def test_cli_bad_value_is_one_line_and_exit_2(tmp_path):
                            f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.strip() == "nct: error: scanner.views_per_rotation must be >= 2, got -5"
+
+
+def test_resume_refuses_a_folder_made_with_other_settings(tiny_cfg, run_dir):
+    run_job(tiny_cfg("method=fbp", "logger=none", "seed=1"), run_dir, ["method=fbp", "seed=1"])
+    with pytest.raises(InputError, match="other settings"):
+        run_job(tiny_cfg("method=fbp", "logger=none", "seed=2", "resume=true"), run_dir,
+                ["method=fbp", "seed=2", "resume=true"])
+    assert read(run_dir / "status.json")["overrides"] == ["method=fbp", "seed=1"]
+
+
+def test_invalid_value_is_recorded_as_failed(tiny_cfg, run_dir):
+    with pytest.raises(InputError, match="phantom.displacement_deg"):
+        run_job(tiny_cfg("phantom.displacement_deg=400"), run_dir)
+    status = read(run_dir / "status.json")
+    assert status["status"] == "failed" and "phantom.displacement_deg" in status["error"]

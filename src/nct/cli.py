@@ -14,7 +14,8 @@ from nct.config import register_configs
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / "conf"
 
-OmegaConf.register_new_resolver("nct_pid", lambda: str(os.getpid()), replace=True)
+# Cached: Hydra copies the resolver cache into every job, so all jobs of a sweep share one folder.
+OmegaConf.register_new_resolver("nct_pid", lambda: str(os.getpid()), replace=True, use_cache=True)
 register_configs()
 
 
@@ -24,12 +25,13 @@ def app(cfg: DictConfig) -> float | None:
     from nct.errors import InputError
     from nct.pipeline import run_job
 
-    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    hydra_cfg = HydraConfig.get()
+    out_dir = Path(hydra_cfg.runtime.output_dir)
     try:
-        return run_job(cfg, out_dir)
+        return run_job(cfg, out_dir, list(hydra_cfg.overrides.task))
     except InputError as err:
         print(f"nct: error: {err}", file=sys.stderr)
-        if HydraConfig.get().mode.name == "RUN":
+        if hydra_cfg.mode.name == "RUN":
             sys.exit(2)
         raise
 

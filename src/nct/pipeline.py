@@ -133,32 +133,54 @@ def read_status(out_dir: Path) -> dict | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
-def run_job(cfg: DictConfig, out_dir: Path) -> float | None:
+IGNORED_OVERRIDES = ("resume=", "hydra.")
+
+
+def _settings(overrides: list[str] | None) -> list[str]:
+    """The overrides that define a job's result (not ``resume`` or Hydra's own), sorted."""
+    return sorted(o for o in overrides or [] if not o.startswith(IGNORED_OVERRIDES))
+
+
+def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) -> float | None:
     """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
 
-    With ``resume=true`` a folder that already holds a finished run is left as it is.
+    ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
+    skips a finished folder only when it was made with the same settings.
     """
-    conf = validate(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
+    settings = _settings(overrides)
+    t0 = time.perf_counter()
+
+    def record(status: str, error: str | None = None, **extra) -> None:
+        _write_json(out_dir / "status.json", {"status": status, "error": error, "overrides": settings,
+                                              "wall_time_s": time.perf_counter() - t0, **extra})
+
     previous = read_status(out_dir)
-    if previous is not None and previous.get("status") == "ok":
-        if not conf.resume:
-            raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
-                             "or choose another output folder")
+    try:
+        conf = validate(cfg)
+        if previous is not None and previous.get("status") == "ok":
+            if not conf.resume:
+                raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
+                                 "or choose another output folder")
+            if previous.get("overrides") != settings:
+                raise InputError(f"resume: {out_dir} holds a finished run with other settings "
+                                 f"({previous.get('overrides')}), not {settings}: use a new sweep folder")
+    except InputError as err:
+        if previous is None or previous.get("status") != "ok":
+            record("failed", f"InputError: {err}")
+        raise
+    if conf.resume and previous is not None and previous.get("status") == "ok":
         log.info("resume: %s already finished, skipped", out_dir)
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
-    t0 = time.perf_counter()
-    _write_json(out_dir / "status.json", {"status": "running", "error": None, "wall_time_s": None})
+    record("running")
     try:
         result = run(conf, cfg, out_dir)
     except BaseException as err:
-        status = "diverged" if isinstance(err, DivergenceError) else "failed"
-        _write_json(out_dir / "status.json", {
-            "status": status, "error": f"{type(err).__name__}: {err}",
-            "traceback": traceback.format_exc(), "wall_time_s": time.perf_counter() - t0})
+        record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}",
+               traceback=traceback.format_exc())
         raise
     _write_json(out_dir / "metrics.json", result)
-    _write_json(out_dir / "status.json", {"status": "ok", "error": None, "wall_time_s": result["wall_time_s"]})
+    record("ok")
     _log_summary(result, out_dir)
     return result.get("heldout_loss")
 
