@@ -133,7 +133,11 @@ class ExportConf:
 
 @dataclass
 class NCTConf:
-    """The whole run. ``seed`` fixes every random source (0 is a seed like any other)."""
+    """The whole run. ``seed`` fixes every random source (0 is a seed like any other).
+
+    ``threads``: torch's intra-op threads (null: torch's default, one per core); 1 is much faster
+    when several jobs share the cores.
+    """
 
     data: Any = MISSING
     phantom: Any = MISSING
@@ -148,8 +152,11 @@ class NCTConf:
     seed: int = 0
     method: str = "nct"
     resume: bool = False
+    threads: Optional[int] = None
 
     def __post_init__(self) -> None:
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"threads must be >= 1 (or null for torch's default), got {self.threads}")
         if self.method not in ("nct", "fbp"):
             raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
         if self.seed < 0:

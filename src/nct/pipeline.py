@@ -83,7 +83,10 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``."""
     import lightning
+    import torch
 
+    if conf.threads is not None:
+        torch.set_num_threads(conf.threads)
     lightning.seed_everything(conf.seed, workers=True, verbose=False)
     rng = np.random.default_rng(conf.seed)
     t0 = time.perf_counter()
