@@ -1,0 +1,549 @@
+"""``nct-report DIR``: one table, a few plots and a markdown summary of a Hydra multirun folder.
+
+Reads every job folder under DIR (``.hydra/``, ``status.json``, ``metrics.json``, see
+docs/ARCHITECTURE.md) and, from ``multirun.yaml``, the jobs that were planned but never started.
+A failed, diverged, unfinished or missing job is a row like any other, with its error: never dropped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import shlex
+import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from omegaconf import DictConfig, OmegaConf
+
+#: Config keys the plots know.
+DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX = "phantom.displacement_deg", "loss.tv_space", "loss.tv_time", "model.f_max"
+PLOTTED_KEYS = (DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX)
+METHODS = ("fbp", "nct")
+SUMMARY_STATS = (("median_dice", "Dice"), ("median_mse", "MSE"))  # per-job summaries the plots show
+FINISHED = "ok"
+
+
+class ReportError(ValueError):
+    """DIR is not a multirun folder this report can read."""
+
+
+@dataclass
+class Job:
+    """One job of a sweep: found on disk, or only planned in ``multirun.yaml`` (status ``missing``).
+
+    ``metrics`` are the scalars of ``metrics.json`` flattened to dotted keys (``nct.median_dice``);
+    ``settings`` the values of `PLOTTED_KEYS` from the job's config, overridden by its overrides.
+    """
+
+    num: int | None
+    overrides: dict[str, str]
+    status: str
+    error: str | None = None
+    wall_time_s: float | None = None
+    metrics: dict[str, float | str] = field(default_factory=dict)
+    settings: dict[str, float] = field(default_factory=dict)
+    path: Path | None = None
+
+    def metric(self, name: str) -> float:
+        """A numeric metric, NaN when the job has none."""
+        value = self.metrics.get(name)
+        return float(value) if isinstance(value, (int, float)) else math.nan
+
+
+@dataclass(frozen=True)
+class Report:
+    """What `write_report` wrote: the table, the summary and the plots (only those that apply)."""
+
+    jobs: list[Job]
+    csv: Path
+    summary: Path
+    plots: dict[str, Path]
+
+
+# ---------------------------------------------------------------- reading
+
+
+def find_job_dirs(sweep_dir: Path) -> list[Path]:
+    """Every folder below ``sweep_dir`` that Hydra ran a job in (it holds ``.hydra/hydra.yaml``)."""
+    return sorted(p.parent.parent for p in sweep_dir.glob("**/.hydra/hydra.yaml")
+                  if p.parent.parent != sweep_dir and not _hidden(p.parent.parent, sweep_dir))
+
+
+def _hidden(path: Path, root: Path) -> bool:
+    return any(part.startswith(".") for part in path.relative_to(root).parts)
+
+
+def collect_jobs(sweep_dir: Path) -> list[Job]:
+    """All jobs of the multirun in ``sweep_dir``, found and missing, ordered by job number."""
+    sweep_dir = Path(sweep_dir)
+    if not sweep_dir.is_dir():
+        raise ReportError(f"{sweep_dir} does not exist or is not a folder")
+    if (sweep_dir / ".hydra").is_dir():
+        raise ReportError(f"{sweep_dir} is a single run, not a multirun folder (run `nct -m ...`)")
+    dirs = find_job_dirs(sweep_dir)
+    plan = _load_yaml(sweep_dir / "multirun.yaml")
+    if plan is None:  # the Optuna sweeper writes none: then DIR's subfolders must be its jobs
+        dirs = [d for d in dirs if d.parent == sweep_dir]
+        plans = [_load_yaml(d / ".hydra" / "hydra.yaml") for d in dirs]
+        if not plans or any(OmegaConf.select(p, "hydra.mode", default=None) != "MULTIRUN" for p in plans):
+            raise ReportError(f"{sweep_dir} is not a multirun folder: no multirun.yaml, and its subfolders "
+                              "are not the jobs of one multirun")
+        plan = plans[0]
+    jobs = [read_job(d) for d in dirs]
+    jobs += missing_jobs(plan, {j.num for j in jobs})
+    return sorted(jobs, key=lambda j: (j.num is None, j.num if j.num is not None else 0, str(j.path)))
+
+
+def read_job(job_dir: Path) -> Job:
+    """One job folder: overrides, status (``unfinished`` without status.json), error, metrics."""
+    hydra_dir = job_dir / ".hydra"
+    overrides = _parse_overrides(_load_yaml_list(hydra_dir / "overrides.yaml"))
+    num = _job_num(hydra_dir / "hydra.yaml")
+    status = _load_json(job_dir / "status.json")
+    if status is None:
+        state, error, wall = "unfinished", "no status.json: never started, or killed before it began", None
+    elif isinstance(status, str):
+        state, error, wall = "unfinished", status, None
+    else:
+        state = str(status.get("status", "unfinished"))
+        error = status.get("error")
+        wall = _number(status.get("wall_time_s"))
+        if state == "running":
+            error = error or "status running: still running, or interrupted"
+    metrics: dict[str, float | str] = {}
+    if state == FINISHED:
+        loaded = _load_json(job_dir / "metrics.json")
+        if isinstance(loaded, dict):
+            metrics = flatten_metrics(loaded)
+            wall = wall if wall is not None else _number(loaded.get("wall_time_s"))
+        else:
+            error = "metrics.json missing or unreadable" + (f": {loaded}" if loaded else "")
+    settings = _settings(_load_yaml(hydra_dir / "config.yaml"), overrides)
+    return Job(num, overrides, state, error, wall, metrics, settings, job_dir)
+
+
+def missing_jobs(plan: DictConfig, found: set[int | None]) -> list[Job]:
+    """Jobs planned by the sweep whose folder does not exist (yet).
+
+    ``plan``: ``multirun.yaml`` (or, without it, a job's ``hydra.yaml``). The basic sweeper's job list
+    is rebuilt exactly (its cartesian product, in its order) from multirun.yaml; for the Optuna
+    sweeper only the number of trials is known, so missing trials have no overrides.
+    """
+    sweeper = OmegaConf.select(plan, "hydra.sweeper", default=None) or {}
+    planned: list[dict[str, str]] | None = None
+    if str(sweeper.get("_target_", "")).endswith("BasicSweeper"):
+        planned = planned_overrides(sweeper.get("params") or {},
+                                    list(OmegaConf.select(plan, "hydra.overrides.task", default=[]) or []))
+    elif isinstance(sweeper.get("n_trials"), int):
+        planned = [{} for _ in range(sweeper["n_trials"])]
+    if planned is None:
+        return []
+    return [Job(num, overrides, "missing", "planned in multirun.yaml but never started")
+            for num, overrides in enumerate(planned) if num not in found]
+
+
+def planned_overrides(params: dict | DictConfig, task_overrides: Sequence[str]) -> list[dict[str, str]]:
+    """Each job's overrides, in job-number order, as Hydra's basic sweeper expands them."""
+    from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    args = [f"{k}={v}" for k, v in dict(params).items()] + list(task_overrides)
+    parsed = OverridesParser.create().parse_overrides(args)
+    return [_parse_overrides(job) for job in BasicSweeper.split_arguments(parsed, None)[0]]
+
+
+def resume_command(multirun: DictConfig, sweep_dir: Path) -> str | None:
+    """The command that finishes an interrupted sweep in place (basic sweeper only).
+
+    Same overrides as the original command, the same sweep folder and ``resume=true``: job numbers
+    map to the same overrides, finished jobs are skipped untouched, the others run again.
+    """
+    if not str(OmegaConf.select(multirun, "hydra.sweeper._target_", default="")).endswith("BasicSweeper"):
+        return None
+    dropped = ("hydra.sweep.dir=", "hydra.mode=", "resume=")
+    overrides = [o for group in ("hydra", "task")
+                 for o in OmegaConf.select(multirun, f"hydra.overrides.{group}", default=None) or []
+                 if not str(o).startswith(dropped)]
+    args = ["nct", "-m", *map(str, overrides), f"hydra.sweep.dir={sweep_dir}", "resume=true"]
+    return " ".join(shlex.quote(a) for a in args)
+
+
+def flatten_metrics(metrics: dict, prefix: str = "") -> dict[str, float | str]:
+    """Scalars of a metrics.json as dotted keys; an IQR pair ``[q25, q75]`` gives ``_q25``/``_q75``.
+
+    Other lists (per-frame values, frame times) are left out: they are not one number per job.
+    """
+    flat: dict[str, float | str] = {}
+    for key, value in metrics.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            flat.update(flatten_metrics(value, f"{name}."))
+        elif isinstance(value, list) and key.startswith("iqr_") and len(value) == 2:
+            flat[f"{name}_q25"], flat[f"{name}_q75"] = (float(v) for v in value)
+        elif isinstance(value, bool):
+            flat[name] = float(value)
+        elif isinstance(value, (int, float, str)):
+            flat[name] = value
+    return flat
+
+
+def _settings(config: DictConfig | None, overrides: dict[str, str]) -> dict[str, float]:
+    settings: dict[str, float] = {}
+    for key in PLOTTED_KEYS:
+        value = overrides.get(key)
+        if value is None and config is not None:
+            try:
+                value = OmegaConf.select(config, key, default=None)
+            except Exception:  # an interpolation that only resolves inside Hydra
+                value = None
+        number = _number(value)
+        if number is not None:
+            settings[key] = number
+    return settings
+
+
+def _parse_overrides(lines: Sequence[str]) -> dict[str, str]:
+    """``["+a.b=1", "c=x"]`` -> ``{"a.b": "1", "c": "x"}`` (the key without ``+``/``++``/``~``)."""
+    pairs = (line.lstrip("+~").partition("=") for line in lines)
+    return {key: value for key, _, value in pairs}
+
+
+def _job_num(hydra_yaml: Path) -> int | None:
+    conf = _load_yaml(hydra_yaml)
+    num = OmegaConf.select(conf, "hydra.job.num", default=None) if conf is not None else None
+    return int(num) if isinstance(num, int) else None
+
+
+def _load_yaml(path: Path) -> DictConfig | None:
+    try:
+        loaded = OmegaConf.load(path)
+    except Exception:
+        return None
+    return loaded if isinstance(loaded, DictConfig) else None
+
+
+def _load_yaml_list(path: Path) -> list[str]:
+    try:
+        loaded = OmegaConf.load(path)
+    except Exception:
+        return []
+    return [str(x) for x in loaded] if not isinstance(loaded, DictConfig) else []
+
+
+def _load_json(path: Path) -> dict | str | None:
+    """The parsed file; None when absent; the error as a string when unreadable."""
+    if not path.is_file():
+        return None
+    try:
+        loaded = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        return f"unreadable {path.name}: {err}"
+    return loaded if isinstance(loaded, dict) else f"unreadable {path.name}: not a JSON object"
+
+
+def _number(value: object) -> float | None:
+    if isinstance(value, bool) or value is None:
+        return None
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+
+
+# ---------------------------------------------------------------- table
+
+
+def table_columns(jobs: Sequence[Job]) -> list[str]:
+    """CSV columns: job, each override key, status, error, wall time, each metric (first-seen order)."""
+    overrides = _union(j.overrides for j in jobs)
+    metrics = [k for k in _union(j.metrics for j in jobs) if k != "wall_time_s"]
+    return ["job", *overrides, "status", "error", "wall_time_s", *metrics]
+
+
+def _union(dicts: Iterable[dict]) -> list[str]:
+    return list(dict.fromkeys(k for d in dicts for k in d))
+
+
+def write_csv(jobs: Sequence[Job], path: Path) -> Path:
+    """One row per job; cells a job lacks are empty."""
+    columns = table_columns(jobs)
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, columns, restval="")
+        writer.writeheader()
+        for job in jobs:
+            row = {"job": "" if job.num is None else job.num, "status": job.status,
+                   "error": job.error or "", "wall_time_s": "" if job.wall_time_s is None else job.wall_time_s}
+            writer.writerow({**job.overrides, **job.metrics, **row})
+    return path
+
+
+# ---------------------------------------------------------------- aggregates and plots
+
+
+@dataclass(frozen=True)
+class Aggregate:
+    """Mean and sample sd (over the finished jobs at each x, e.g. seeds) of one metric: arrays [X]."""
+
+    x: np.ndarray
+    n: np.ndarray
+    mean: np.ndarray
+    sd: np.ndarray
+
+
+def finished(jobs: Sequence[Job]) -> list[Job]:
+    """The jobs that finished ok and have metrics: the only ones plotted and aggregated."""
+    return [j for j in jobs if j.status == FINISHED and j.metrics]
+
+
+def distinct(jobs: Sequence[Job], key: str) -> list[float]:
+    """Sorted distinct values of a plotted setting over the finished jobs."""
+    return sorted({j.settings[key] for j in finished(jobs) if key in j.settings})
+
+
+def aggregate(jobs: Sequence[Job], key: str, metric: str) -> Aggregate:
+    """``metric`` (e.g. ``nct.median_dice``) of the finished jobs grouped by setting ``key``."""
+    xs = distinct(jobs, key)
+    groups = [np.array([j.metric(metric) for j in finished(jobs) if j.settings.get(key) == x]) for x in xs]
+    groups = [g[np.isfinite(g)] for g in groups]
+    mean = np.array([g.mean() if g.size else np.nan for g in groups])
+    sd = np.array([g.std(ddof=1) if g.size > 1 else 0.0 for g in groups])
+    return Aggregate(np.array(xs), np.array([g.size for g in groups]), mean, sd)
+
+
+def plot_metrics_vs(jobs: Sequence[Job], key: str, label: str, path: Path) -> Path:
+    """Median Dice and median MSE per job against ``key``, FBP and NCT, mean +- sd over jobs (seeds)."""
+    fig = Figure(figsize=(10, 4), layout="constrained")
+    for ax, (stat, name) in zip(fig.subplots(1, 2), SUMMARY_STATS):
+        for method in METHODS:
+            agg = aggregate(jobs, key, f"{method}.{stat}")
+            if np.isfinite(agg.mean).any():
+                ax.errorbar(agg.x, agg.mean, yerr=agg.sd, marker="o", capsize=3, label=method.upper())
+        if stat == "median_mse" and ax.has_data():
+            ax.set_yscale("log")
+        ax.set_xlabel(label)
+        ax.set_ylabel(f"median {name} per job (mean ± sd over seeds)")
+        ax.grid(alpha=0.3)
+        ax.legend()
+    fig.suptitle(f"Dice and MSE against {label}")
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def tv_grid(jobs: Sequence[Job], metric: str = "nct.median_dice") -> tuple[list[float], list[float], np.ndarray]:
+    """Mean ``metric`` on the TV-space x TV-time grid: (space values, time values, [S,T], NaN: no job)."""
+    spaces, times = distinct(jobs, TV_SPACE), distinct(jobs, TV_TIME)
+    grid = np.full((len(spaces), len(times)), np.nan)
+    for i, s in enumerate(spaces):
+        for k, t in enumerate(times):
+            values = [j.metric(metric) for j in finished(jobs)
+                      if j.settings.get(TV_SPACE) == s and j.settings.get(TV_TIME) == t]
+            values = [v for v in values if math.isfinite(v)]
+            if values:
+                grid[i, k] = float(np.mean(values))
+    return spaces, times, grid
+
+
+def plot_tv_grid(jobs: Sequence[Job], path: Path) -> Path:
+    """Heat map of NCT median Dice over TV-space (rows) x TV-time (columns) weights (paper Fig. 3 top)."""
+    spaces, times, grid = tv_grid(jobs)
+    fig = Figure(figsize=(max(4.5, 2.0 + 0.6 * len(times)), max(3.5, 1.5 + 0.45 * len(spaces))),
+                 layout="constrained")
+    ax = fig.subplots()
+    image = ax.imshow(grid, origin="lower", cmap="viridis", vmin=0.0, vmax=1.0, aspect="auto")
+    ax.set_xticks(range(len(times)), [f"{t:g}" for t in times])
+    ax.set_yticks(range(len(spaces)), [f"{s:g}" for s in spaces])
+    ax.set_xlabel("loss.tv_time (TV in time)")
+    ax.set_ylabel("loss.tv_space (TV in space)")
+    for (i, k), value in np.ndenumerate(grid):
+        if np.isfinite(value):
+            ax.text(k, i, f"{value:.2f}", ha="center", va="center", fontsize=7,
+                    color="black" if value > 0.6 else "white")
+    fig.colorbar(image, ax=ax, label="NCT median Dice")
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def plot_accuracy_vs_time(jobs: Sequence[Job], path: Path) -> Path:
+    """NCT median Dice against the job's wall time, labelled by job number; failed ones as crosses at 0."""
+    fig = Figure(figsize=(6, 4), layout="constrained")
+    ax = fig.subplots()
+    done = finished(jobs)
+    ax.scatter([j.wall_time_s for j in done], [j.metric("nct.median_dice") for j in done], label="NCT")
+    for job in done:
+        ax.annotate(str(job.num), (job.wall_time_s, job.metric("nct.median_dice")), fontsize=6)
+    broken = [j for j in jobs if j.status != FINISHED and j.wall_time_s is not None]
+    if broken:
+        ax.scatter([j.wall_time_s for j in broken], [0.0] * len(broken), marker="x", color="red",
+                   label="failed / diverged (no Dice)")
+    ax.set_xlabel("wall time per job (s)")
+    ax.set_ylabel("NCT median Dice")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def plot_heldout_vs_dice(jobs: Sequence[Job], path: Path) -> Path:
+    """NCT median Dice against the truth-free held-out sinogram loss: is the search score a fair proxy?"""
+    fig = Figure(figsize=(6, 4), layout="constrained")
+    ax = fig.subplots()
+    done = finished(jobs)
+    ax.scatter([j.metric("heldout_loss") for j in done], [j.metric("nct.median_dice") for j in done])
+    ax.set_xscale("log")
+    ax.set_xlabel("held-out sinogram loss (truth-free; lower is better)")
+    ax.set_ylabel("NCT median Dice")
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def write_plots(jobs: Sequence[Job], out_dir: Path) -> dict[str, Path]:
+    """Every plot whose setting varies over the finished jobs (accuracy vs wall time always)."""
+    plots: dict[str, Path] = {}
+    if len(distinct(jobs, DISPLACEMENT)) > 1:
+        plots["displacement"] = plot_metrics_vs(jobs, DISPLACEMENT, "displacement per rotation (deg)",
+                                                out_dir / "displacement.png")
+    if len(distinct(jobs, TV_SPACE)) > 1 and len(distinct(jobs, TV_TIME)) > 1:
+        plots["tv_grid"] = plot_tv_grid(jobs, out_dir / "tv_grid.png")
+    if len(distinct(jobs, F_MAX)) > 1:
+        plots["f_max"] = plot_metrics_vs(jobs, F_MAX, "model.f_max (F_max)", out_dir / "f_max.png")
+    plots["accuracy_vs_time"] = plot_accuracy_vs_time(jobs, out_dir / "accuracy_vs_time.png")
+    if sum(math.isfinite(j.metric("heldout_loss")) and j.metric("heldout_loss") > 0 for j in finished(jobs)) > 1:
+        plots["heldout_vs_dice"] = plot_heldout_vs_dice(jobs, out_dir / "heldout_vs_dice.png")
+    return plots
+
+
+# ---------------------------------------------------------------- summary
+
+
+def _fmt(value: float | None, digits: int = 3) -> str:
+    return "" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return lines + ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
+
+
+def _by_setting_table(jobs: Sequence[Job], key: str) -> list[str]:
+    stats = [(m, s, f"{m.upper()} {name}") for s, name in SUMMARY_STATS for m in METHODS]
+    aggs = [aggregate(jobs, key, f"{m}.{s}") for m, s, _ in stats]
+    header = [key, "jobs ok", *(title for _, _, title in stats)]
+    rows = [[f"{x:g}", str(aggs[0].n[i]),
+             *(_mean_sd(a, i) for a in aggs)] for i, x in enumerate(aggs[0].x)]
+    return _md_table(header, rows)
+
+
+def _mean_sd(agg: Aggregate, i: int) -> str:
+    return f"{_fmt(agg.mean[i])} ± {_fmt(agg.sd[i], 2)}" if np.isfinite(agg.mean[i]) else ""
+
+
+def _tv_table(jobs: Sequence[Job]) -> list[str]:
+    spaces, times, grid = tv_grid(jobs)
+    rows = [[f"{s:g}", *(_fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
+    return _md_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
+
+
+def _first_line(error: str | None) -> str:
+    lines = (error or "").strip().splitlines()
+    return lines[0] if lines else "no error recorded"
+
+
+def _varying(jobs: Sequence[Job]) -> list[str]:
+    keys = _union(j.overrides for j in jobs)
+    return [k for k in keys if len({j.overrides.get(k) for j in jobs}) > 1]
+
+
+def _label(job: Job, keys: Sequence[str]) -> str:
+    return " ".join(f"{k}={_short(job.overrides[k])}" for k in keys if k in job.overrides)
+
+
+def _short(value: str) -> str:
+    """An override value for reading: numbers to 4 significant digits (Optuna's have 16)."""
+    number = _number(value)
+    return f"{number:.4g}" if number is not None and "." in value else value
+
+
+def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) -> list[str]:
+    """The markdown summary: counts, tables by swept setting, every job, what did not finish."""
+    counts: dict[str, int] = {}
+    for job in jobs:
+        counts[job.status] = counts.get(job.status, 0) + 1
+    lines = [f"# Sweep report: `{sweep_dir.resolve()}`", "",
+             f"{len(jobs)} jobs: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) + ".", ""]
+    best = [j for j in finished(jobs) if math.isfinite(j.metric("heldout_loss"))]
+    varying = _varying(jobs)
+    if best:
+        pick = min(best, key=lambda j: j.metric("heldout_loss"))
+        lines += [f"Lowest held-out sinogram loss (truth-free choice): job {pick.num} "
+                  f"({_label(pick, varying) or 'no varying override'}), held-out loss "
+                  f"{_fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {_fmt(pick.metric('nct.median_dice'))}.", ""]
+    for key, title in ((DISPLACEMENT, "By displacement"), (F_MAX, "By F_max")):
+        if len(distinct(jobs, key)) > 1:
+            lines += [f"## {title} (mean ± sd over jobs, e.g. seeds, of each job's median)", "",
+                      *_by_setting_table(jobs, key), ""]
+    if "tv_grid" in plots:
+        lines += ["## NCT median Dice on the TV grid (rows: TV space, columns: TV time)", "", *_tv_table(jobs), ""]
+    header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in SUMMARY_STATS for m in METHODS),
+              "held-out loss", "wall s"]
+    rows = [[str(j.num), *(_short(j.overrides.get(k, "")) for k in varying), j.status,
+             *(_fmt(j.metric(f"{m}.{s}")) for s, _ in SUMMARY_STATS for m in METHODS),
+             _fmt(j.metric("heldout_loss"), 4), _fmt(j.wall_time_s, 3)] for j in jobs]
+    lines += ["## Jobs", "", *_md_table(header, rows), ""]
+    broken = [j for j in jobs if j.status != FINISHED or j.error]
+    lines += ["## Failed, diverged, unfinished or missing", ""]
+    lines += [f"- job {j.num} ({_label(j, varying) or 'no varying override'}): **{j.status}**: "
+              f"{_first_line(j.error)}" for j in broken] or ["None."]
+    multirun = _load_yaml(sweep_dir / "multirun.yaml")
+    command = resume_command(multirun, sweep_dir.resolve()) if broken and multirun is not None else None
+    if command:
+        lines += ["", "Run the jobs that are not ok again, leaving finished ones untouched "
+                  "(stop any run still going first):", "", f"    {command}"]
+    lines += ["", "## Plots", "", *(f"![{name}]({path.name})" for name, path in plots.items()), ""]
+    return lines
+
+
+# ---------------------------------------------------------------- entry points
+
+
+def write_report(sweep_dir: Path, out_dir: Path | None = None) -> Report:
+    """Read the multirun in ``sweep_dir``; write report.csv, summary.md and plots to ``out_dir``.
+
+    ``out_dir`` defaults to ``sweep_dir/report``.
+    """
+    sweep_dir = Path(sweep_dir)
+    jobs = collect_jobs(sweep_dir)
+    out_dir = Path(out_dir) if out_dir is not None else sweep_dir / "report"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    table = write_csv(jobs, out_dir / "report.csv")
+    plots = write_plots(jobs, out_dir)
+    summary = out_dir / "summary.md"
+    summary.write_text("\n".join(summary_lines(sweep_dir, jobs, plots)))
+    return Report(jobs, table, summary, plots)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Console entry point (``nct-report DIR [--out OUT]``); exit 2 on a bad DIR."""
+    parser = argparse.ArgumentParser(prog="nct-report", description=__doc__.splitlines()[0])
+    parser.add_argument("dir", type=Path, help="a multirun folder (hydra.sweep.dir), e.g. outputs/multirun/...")
+    parser.add_argument("--out", type=Path, default=None, help="where to write (default: DIR/report)")
+    args = parser.parse_args(argv)
+    try:
+        report = write_report(args.dir, args.out)
+    except ReportError as err:
+        print(f"nct-report: error: {err}", file=sys.stderr)
+        return 2
+    not_ok = sum(j.status != FINISHED for j in report.jobs)
+    print(f"{len(report.jobs)} jobs ({not_ok} not ok): {report.csv}, {report.summary}, "
+          f"{len(report.plots)} plots in {report.csv.parent}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,196 @@
+"""`nct-report` on hand-made multirun folders: table, plots, summary, and jobs that did not finish."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from nct.report import (
+    Job,
+    aggregate,
+    collect_jobs,
+    flatten_metrics,
+    main,
+    planned_overrides,
+    tv_grid,
+    write_report,
+)
+
+BASIC = "hydra._internal.core_plugins.basic_sweeper.BasicSweeper"
+
+
+def summary(median_dice: float, median_mse: float) -> dict:
+    """A metrics.summarise()-shaped dict."""
+    return {"median_mse": median_mse, "iqr_mse": [median_mse / 2, median_mse * 2], "median_dice": median_dice,
+            "iqr_dice": [median_dice - 0.05, median_dice + 0.01], "share_mse_lt_0.005": 0.5,
+            "share_dice_gt_0.85": 0.75, "per_frame": {"mse": [median_mse] * 3, "dice": [median_dice] * 3}}
+
+
+def make_sweep(root: Path, params: dict[str, str], task: list[str], sweeper: str = BASIC, **sweeper_extra) -> Path:
+    root.mkdir(parents=True)
+    hydra = {"sweeper": {"_target_": sweeper, "params": params, **sweeper_extra}, "overrides": {"task": task},
+             "mode": "MULTIRUN"}
+    OmegaConf.save(OmegaConf.create({"hydra": hydra, "seed": 0}), root / "multirun.yaml")
+    return root
+
+
+def make_job(sweep: Path, num: int, overrides: list[str], status: dict | None, metrics: dict | None = None,
+             config: dict | None = None, hydra: dict | None = None) -> Path:
+    job = sweep / str(num)
+    (job / ".hydra").mkdir(parents=True)
+    hydra = {"job": {"num": num}, "mode": "MULTIRUN", **(hydra or {})}
+    OmegaConf.save(OmegaConf.create({"hydra": hydra}), job / ".hydra/hydra.yaml")
+    OmegaConf.save(OmegaConf.create(overrides), job / ".hydra/overrides.yaml")
+    OmegaConf.save(OmegaConf.create(config or {}), job / ".hydra/config.yaml")
+    if status is not None:
+        (job / "status.json").write_text(json.dumps(status))
+    if metrics is not None:
+        (job / "metrics.json").write_text(json.dumps(metrics))
+    return job
+
+
+def ok_metrics(nct_dice: float, fbp_dice: float, wall: float) -> dict:
+    return {"fbp": summary(fbp_dice, 0.02), "nct": summary(nct_dice, 0.002), "wall_time_s": wall,
+            "heldout_loss": 1.0 - nct_dice, "capacity": {"parameters": 1234}, "times": [0.0, 0.1]}
+
+
+@pytest.fixture
+def displacement_sweep(tmp_path: Path) -> Path:
+    """displacement {0, 100, 200} x seed {0, 1, 2}: jobs 0-5 ok, 6 failed, 7 unfinished, 8 never started."""
+    sweep = make_sweep(tmp_path / "sweep", {"phantom.displacement_deg": "0,100,200", "seed": "0,1,2"},
+                       ["sweep=displacement_quick"])
+    for num in range(6):
+        disp, seed = (0, 100)[num // 3], num % 3
+        nct = (0.95 if disp == 0 else 0.80) + 0.01 * seed
+        make_job(sweep, num, [f"phantom.displacement_deg={disp}", f"seed={seed}", "sweep=displacement_quick"],
+                 {"status": "ok", "error": None, "wall_time_s": 10.0 + num}, ok_metrics(nct, nct - 0.3, 10.0 + num),
+                 config={"phantom": {"displacement_deg": 999}, "loss": {"tv_space": 0.5, "tv_time": 0.5}})
+    make_job(sweep, 6, ["phantom.displacement_deg=200", "seed=0", "sweep=displacement_quick"],
+             {"status": "failed", "error": "RuntimeError: boom\nsecond line", "wall_time_s": 3.0})
+    make_job(sweep, 7, ["phantom.displacement_deg=200", "seed=1", "sweep=displacement_quick"], None)
+    return sweep
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_report_lists_every_job_with_status_error_and_metrics(displacement_sweep: Path, tmp_path: Path):
+    report = write_report(displacement_sweep, tmp_path / "out")
+    rows = read_csv(report.csv)
+    assert [r["job"] for r in rows] == [str(n) for n in range(9)]
+    assert [r["status"] for r in rows] == ["ok"] * 6 + ["failed", "unfinished", "missing"]
+    assert rows[6]["error"].startswith("RuntimeError: boom")
+    assert "status.json" in rows[7]["error"] and "never started" in rows[8]["error"]
+    # the missing job is rebuilt from multirun.yaml with its overrides
+    assert (rows[8]["phantom.displacement_deg"], rows[8]["seed"], rows[8]["sweep"]) == ("200", "2", "displacement_quick")
+    assert float(rows[4]["nct.median_dice"]) == pytest.approx(0.81)
+    assert float(rows[4]["fbp.median_dice"]) == pytest.approx(0.51)
+    assert float(rows[4]["nct.iqr_dice_q25"]) == pytest.approx(0.76)
+    assert float(rows[4]["heldout_loss"]) == pytest.approx(0.19)
+    assert float(rows[4]["capacity.parameters"]) == 1234
+    assert float(rows[6]["wall_time_s"]) == 3.0 and rows[6]["nct.median_dice"] == ""
+    assert not any(k.startswith("nct.per_frame") or k == "times" for k in rows[0])
+    assert set(report.plots) == {"displacement", "accuracy_vs_time", "heldout_vs_dice"}
+    assert all(p.is_file() and p.stat().st_size > 5000 for p in report.plots.values())
+
+
+def test_aggregate_over_seeds_uses_overrides_over_config(displacement_sweep: Path):
+    jobs = collect_jobs(displacement_sweep)
+    agg = aggregate(jobs, "phantom.displacement_deg", "nct.median_dice")
+    np.testing.assert_allclose(agg.x, [0, 100])  # not the config's 999: the override wins
+    np.testing.assert_array_equal(agg.n, [3, 3])
+    np.testing.assert_allclose(agg.mean, [0.96, 0.81])
+    np.testing.assert_allclose(agg.sd, [0.01, 0.01])
+
+
+def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
+    text = write_report(displacement_sweep).summary.read_text()
+    assert "9 jobs: 1 failed, 1 missing, 6 ok, 1 unfinished." in text
+    assert "| 0 | 3 | 0.66 ± 0.01 | 0.96 ± 0.01 |" in text
+    assert "- job 6 (phantom.displacement_deg=200 seed=0): **failed**: RuntimeError: boom" in text
+    assert "second line" not in text
+    assert "- job 7 (phantom.displacement_deg=200 seed=1): **unfinished**" in text
+    assert "- job 8 (phantom.displacement_deg=200 seed=2): **missing**" in text
+    assert "Lowest held-out sinogram loss (truth-free choice): job 2" in text
+    assert "![displacement](displacement.png)" in text
+    assert f"    nct -m sweep=displacement_quick hydra.sweep.dir={displacement_sweep} resume=true" in text
+    assert (displacement_sweep / "report" / "report.csv").is_file()
+
+
+def test_tv_grid_heat_map(tmp_path: Path):
+    sweep = make_sweep(tmp_path / "tv", {"loss.tv_space": "0,1", "loss.tv_time": "0,1"}, [])
+    for num, (s, t) in enumerate([(0, 0), (0, 1), (1, 0), (1, 1)]):
+        if num == 3:
+            make_job(sweep, num, [f"loss.tv_space={s}", f"loss.tv_time={t}"],
+                     {"status": "diverged", "error": "DivergenceError: loss is nan", "wall_time_s": 1.0})
+            continue
+        make_job(sweep, num, [f"loss.tv_space={s}", f"loss.tv_time={t}"],
+                 {"status": "ok", "error": None, "wall_time_s": 5.0}, ok_metrics(0.5 + 0.1 * num, 0.4, 5.0))
+    report = write_report(sweep)
+    spaces, times, grid = tv_grid(report.jobs)
+    assert spaces == [0.0, 1.0] and times == [0.0, 1.0]
+    np.testing.assert_allclose(grid, [[0.5, 0.6], [0.7, np.nan]])
+    assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
+    assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
+
+
+def test_optuna_sweep_counts_missing_trials_from_its_jobs(tmp_path: Path):
+    sweep = tmp_path / "optuna"  # the Optuna sweeper writes no multirun.yaml
+    optuna = {"sweeper": {"_target_": "hydra_plugins.hydra_optuna_sweeper.optuna_sweeper.OptunaSweeper",
+                          "n_trials": 3}}
+    for num, f_max in enumerate((1.5, 6.0)):
+        make_job(sweep, num, [f"model.f_max={f_max}"], {"status": "ok", "error": None, "wall_time_s": 2.0},
+                 ok_metrics(0.9 - 0.1 * num, 0.5, 2.0), hydra=optuna)
+    report = write_report(sweep)
+    assert [(j.num, j.status) for j in report.jobs] == [(0, "ok"), (1, "ok"), (2, "missing")]
+    assert "f_max" in report.plots
+
+
+def test_planned_overrides_follow_hydra_basic_sweeper_order():
+    jobs = planned_overrides({"a": "1,2"}, ["b=x,y", "c=3", "+d=4"])
+    assert jobs == [{"a": "1", "b": "x", "c": "3", "d": "4"}, {"a": "1", "b": "y", "c": "3", "d": "4"},
+                    {"a": "2", "b": "x", "c": "3", "d": "4"}, {"a": "2", "b": "y", "c": "3", "d": "4"}]
+
+
+def test_flatten_metrics_keeps_scalars_and_iqr():
+    flat = flatten_metrics({"nct": summary(0.9, 0.001), "heldout_loss": 0.1, "stages": {"fit": {"steps": 5}},
+                            "times": [0.0, 1.0], "ok": True})
+    assert flat["nct.iqr_mse_q75"] == pytest.approx(0.002)
+    assert flat["stages.fit.steps"] == 5 and flat["ok"] == 1.0 and flat["heldout_loss"] == 0.1
+    assert "times" not in flat and not any("per_frame" in k for k in flat)
+
+
+def test_job_metric_is_nan_when_absent():
+    assert np.isnan(Job(0, {}, "failed").metric("nct.median_dice"))
+
+
+@pytest.mark.parametrize("layout", ["missing", "empty", "single_run", "folder_of_runs", "folder_of_sweeps", "file"])
+def test_bad_dir_is_one_line_error_exit_2(tmp_path: Path, capsys, layout: str):
+    target = tmp_path / "d"
+    if layout == "empty":
+        target.mkdir()
+    elif layout == "single_run":
+        (target / ".hydra").mkdir(parents=True)
+    elif layout == "folder_of_runs":  # e.g. outputs/runs: single runs side by side
+        make_job(target, 0, [], {"status": "ok", "error": None, "wall_time_s": 1.0}, hydra={"mode": "RUN"})
+    elif layout == "folder_of_sweeps":  # e.g. outputs/multirun
+        make_sweep(target / "a", {"seed": "0,1"}, [])
+        make_job(target / "a", 0, ["seed=0"], {"status": "ok", "error": None, "wall_time_s": 1.0})
+    elif layout == "file":
+        target.write_text("x")
+    assert main([str(target)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("nct-report: error:") and len(err.splitlines()) == 1 and str(target) in err
+
+
+def test_main_writes_to_out(displacement_sweep: Path, tmp_path: Path, capsys):
+    assert main([str(displacement_sweep), "--out", str(tmp_path / "o")]) == 0
+    assert (tmp_path / "o" / "report.csv").is_file() and (tmp_path / "o" / "summary.md").is_file()
+    assert "9 jobs (3 not ok)" in capsys.readouterr().out
