@@ -1,0 +1,76 @@
+"""Neural SDF fields: shapes, the static family, the Fourier basis in time, config validation."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from nct.fields import ModelConf, build_field
+
+XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
+SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
+
+
+def field(seed: int = 0, **kw):
+    return build_field(ModelConf(**(SMALL | kw)), n_objects=2, generator=torch.Generator().manual_seed(seed))
+
+
+def test_shapes():
+    f = field(n_terms=5)
+    c = f.coefficients(XY)
+    assert c.static.shape == (2, 50) and c.temporal.shape == (10, 2, 50)
+    t = torch.tensor([0.0, 0.3, 0.7])
+    assert f.sdf(c, t).shape == (3, 2, 50) and f.sdf_rate(c, t).shape == (3, 2, 50)
+
+
+def test_sdf_is_static_plus_fourier_series():
+    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t)."""
+    f = field(n_terms=4)
+    c = f.coefficients(XY)
+    t = 0.37
+    by_hand = c.static.clone()
+    for i, w in enumerate(f.omega):
+        by_hand += (c.temporal[i] * math.sin(2 * math.pi * w * t) + c.temporal[4 + i] * math.cos(2 * math.pi * w * t)) / 4
+    torch.testing.assert_close(f.sdf(c, torch.tensor([t]))[0], by_hand, atol=1e-5, rtol=1e-5)
+
+
+def test_time_derivative_matches_finite_difference():
+    f = field(n_terms=6, f_max=0.8)
+    c = f.coefficients(XY)
+    t, h = torch.tensor([0.4], dtype=torch.float64), 1e-4
+    f = f.double()
+    c = f.coefficients(XY.double())
+    numeric = (f.sdf(c, t + h) - f.sdf(c, t - h)) / (2 * h)
+    torch.testing.assert_close(f.sdf_rate(c, t), numeric, atol=1e-6, rtol=1e-5)
+
+
+def test_static_model_has_no_temporal_terms():
+    f = field(n_terms=0)
+    c = f.coefficients(XY)
+    assert f.temporal is None and c.temporal is None and f.describe()["static"]
+    assert not any("temporal" in name for name, _ in f.named_parameters())
+    g = f.sdf(c, torch.tensor([0.0, 5.0]))
+    torch.testing.assert_close(g[0], g[1])
+    assert f.sdf_rate(c, torch.tensor([1.0])).abs().max() == 0
+
+
+def test_frequencies_follow_seed_and_f_max():
+    a, b, other = field(0, n_terms=4000, f_max=0.3), field(0, n_terms=4000, f_max=0.3), field(1, n_terms=4000, f_max=0.3)
+    torch.testing.assert_close(a.omega, b.omega)
+    assert not torch.equal(a.omega, other.omega)
+    assert a.omega.std().item() == pytest.approx(0.3, rel=0.05)
+    assert a.omega.mean().abs().item() < 0.02
+
+
+def test_describe_counts_parameters():
+    f = field(n_terms=3)
+    assert f.describe()["n_params"] == sum(p.numel() for p in f.parameters())
+
+
+@pytest.mark.parametrize("key, value", [("family", "mlp"), ("width", 0), ("n_terms", -1), ("f_max", -0.1),
+                                        ("omega0", 0.0)])
+def test_bad_config_names_the_key(key, value):
+    with pytest.raises(ValueError, match=f"model.{key}"):
+        ModelConf(**{key: value})

@@ -1,0 +1,61 @@
+"""Algorithm 1: the Gaussian-mixture segmentation recovers object masks and intensities."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nct.metrics import dice
+from nct.segment import segment
+from nct.scanner import ImageGrid
+
+
+def two_object_frames(n_frames: int = 20, noise: float = 0.05, seed: int = 0):
+    """Noisy frames of a bright disc (1.0) and a fainter square (0.4) moving apart: images, masks."""
+    x, y = ImageGrid(48).xy()
+    rng = np.random.default_rng(seed)
+    images, masks = [], []
+    for f in range(n_frames):
+        disc = (x - 0.15 + 0.005 * f) ** 2 + (y - 0.1) ** 2 < 0.15**2
+        square = (np.abs(x + 0.2) < 0.1) & (np.abs(y + 0.15 + 0.004 * f) < 0.1)
+        images.append(1.0 * disc + 0.4 * square + noise * rng.standard_normal(x.shape))
+        masks.append(np.stack([disc, square]))
+    return np.stack(images).astype(np.float32), np.stack(masks)
+
+
+def test_recovers_masks_and_intensities_of_two_objects():
+    images, truth = two_object_frames()
+    seg = segment(images, 2, np.random.default_rng(0), share=0.1)
+    assert seg.masks.shape == truth.shape and seg.masks.dtype == bool
+    np.testing.assert_allclose(seg.intensities, [1.0, 0.4], atol=0.05)
+    for k in range(2):
+        assert dice(seg.masks[:, k], truth[:, k]).min() > 0.97
+
+
+def test_one_object_ignores_streak_classes():
+    """Negative streaks and a faint haze are buffer classes, never the object."""
+    images, truth = two_object_frames()
+    images = images - 0.4 * truth[:, 1]  # square gone; add a negative streak band and a faint haze
+    images[:, 5:8, :] -= 0.3
+    images[:, 30:40, 30:40] += 0.15
+    seg = segment(images, 1, np.random.default_rng(1))
+    assert seg.intensities[0] == pytest.approx(1.0, abs=0.05)
+    assert dice(seg.masks[:, 0], truth[:, 0]).min() > 0.97
+
+
+def test_same_rng_same_segmentation():
+    images, _ = two_object_frames()
+    a = segment(images, 2, np.random.default_rng(3))
+    b = segment(images, 2, np.random.default_rng(3))
+    np.testing.assert_array_equal(a.masks, b.masks)
+
+
+def test_bad_input_is_named():
+    images, _ = two_object_frames(4)
+    with pytest.raises(ValueError, match="n_objects"):
+        segment(images, 0, np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"\[F, H, W\]"):
+        segment(images[0], 1, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="distinct intensity levels"):
+        segment(np.zeros((3, 16, 16), np.float32) + np.random.default_rng(0).normal(size=(3, 16, 16)) * 1e-3,
+                5, np.random.default_rng(0), kappa=0)
