@@ -304,7 +304,7 @@ def pareto_front(times: Sequence[float], scores: Sequence[float]) -> list[int]:
     return front
 
 
-def breakdown_point(settings: Sequence, medians: Sequence[float], threshold: float = DICE_GOOD):
+def breakdown_point(settings: Sequence, medians: Sequence[float], threshold: float = DICE_GOOD) -> object | None:
     """The first setting (``settings`` ordered from easy to hard) whose median Dice is below ``threshold``
     (NaN counts as below); None when the method holds up at every setting."""
     if len(settings) != len(medians):
