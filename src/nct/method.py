@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import lightning as L
@@ -26,15 +26,14 @@ from nct.sinogram import Sinogram
 from nct.stages import (LOGGERS, IndexDataModule, InitFit, LossConf, MinLossStop, SinogramFit, TrainerConf,
                         Views, run_stage)
 
-FIELD_SEED_OFFSET = 1  # the second pass draws a fresh field from its own stream
-
 
 @dataclass
 class NCTResult:
     """What ``reconstruct`` returns.
 
     frames: [F, H, W] float32 intensity sum_k a(k) zeta_k; sdf: [F, K, H, W] float32 (physical
-    units, positive inside); intensities: [K] estimated from the data; heldout_loss: relative
+    units, positive inside); intensities: [K] a(k) estimated from the data (Algorithm 1, then
+    fitted with the field when trainer.fit_intensities); heldout_loss: relative
     sinogram L1 on the held-out views (NaN if none); stages: per stage {steps, losses,
     wall_time_s}; capacity: description of the model.
     """
@@ -110,20 +109,24 @@ def reconstruct(
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), float(sino.bin_spacing))
 
-    passes = [("", trainer.init_steps, trainer.fit_steps)]
+    # The second pass continues the first pass's field (from random weights it would need as many
+    # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
+    passes = [("", trainer.init_steps, trainer.fit_steps, trainer)]
     if trainer.refine:
-        passes.append(("refine_", trainer.refine_init_steps, trainer.refine_fit_steps))
+        second = replace(trainer, lr=trainer.refine_lr, band_start_px=trainer.band_px)
+        passes.append(("refine_", trainer.refine_init_steps, trainer.refine_fit_steps, second))
+    net = build_field(model, n_objects, torch.Generator().manual_seed(seed))
     stages: dict = {}
-    for i, (prefix, init_steps, fit_steps) in enumerate(passes):
-        net = build_field(model, n_objects, torch.Generator().manual_seed(seed + i * FIELD_SEED_OFFSET))
-        init = InitFit(net, grid, trainer, loss, torch.from_numpy(targets), clock(init_times))
+    for i, (prefix, init_steps, fit_steps, conf) in enumerate(passes):
+        init = InitFit(net, grid, conf, loss, torch.from_numpy(targets), clock(init_times))
         stages[prefix + "init"] = run_stage(
             init, IndexDataModule(np.arange(n_init), trainer.batch_views, init_steps, _stream(rng)),
-            init_steps, prefix + "init", trainer, log_dir, logger)
-        fit = SinogramFit(net, grid, trainer, loss, views, amplitudes, fit_steps)
+            init_steps, prefix + "init", conf, log_dir, logger)
+        fit = SinogramFit(net, grid, conf, loss, views, amplitudes, fit_steps)
         stages[prefix + "fit"] = run_stage(
             fit, IndexDataModule(fit_views, trainer.batch_views, fit_steps, _stream(rng)),
-            fit_steps, prefix + "fit", trainer, log_dir, logger, (MinLossStop(trainer.min_loss),))
+            fit_steps, prefix + "fit", conf, log_dir, logger, (MinLossStop(trainer.min_loss),))
+        amplitudes = fit.intensities.detach().cpu()
         if i + 1 < len(passes):
             targets = masks_to_sdf(binarise(field_frames(fit, clock(init_times))), grid.pixel_size)
 
@@ -131,7 +134,7 @@ def reconstruct(
     band = trainer.band_px * grid.pixel_size
     frames = intensity(torch.from_numpy(sdf), amplitudes, band, trainer.mu).numpy()
     heldout = fit.sinogram_loss(torch.from_numpy(held_views)) if len(held_views) else float("nan")
-    return NCTResult(frames=frames.astype(np.float32), sdf=sdf, intensities=seg.intensities.astype(np.float64),
+    return NCTResult(frames=frames.astype(np.float32), sdf=sdf, intensities=amplitudes.double().numpy(),
                      heldout_loss=heldout, stages=stages, capacity=_capacity(net, model))
 
 

@@ -64,10 +64,14 @@ class TrainerConf:
     """How the stages run (config group ``trainer``).
 
     accelerator, devices: passed to Lightning. init_steps, fit_steps: steps of InitFit and
-    SinogramFit in the first pass; refine: run the second pass (Algorithms 2-6 again) with
-    refine_init_steps and refine_fit_steps. lr: Adam's rate, reached after warmup_steps, then
-    multiplied by lr_decay every lr_decay_every steps. batch_views: views (timepoints) per step.
+    SinogramFit in the first pass. lr: Adam's rate, reached after warmup_steps, then multiplied
+    by lr_decay every lr_decay_every steps; the sinogram fit needs the decay: at a constant 1e-3
+    it wanders off even a start from the true SDF. refine: run the second pass (Algorithms 2-6
+    again) on the first pass's field, refine_init_steps and refine_fit_steps at refine_lr with
+    the final band. batch_views: views (timepoints) per step.
     min_loss: stop SinogramFit once the sinogram loss is below (0: never).
+    fit_intensities: SinogramFit also fits a(k), from Algorithm 1's estimate, at intensity_lr
+    (Adam on log a): FBP of fast motion has no histogram peak at the object's level.
     band_px: width in pixels of the occupancy ramp (see render.py); SinogramFit starts at
     band_start_px and narrows geometrically to band_px over band_anneal of its steps, so that at
     first a wide band of the boundary gets gradient. mu: the paper's occupancy slope.
@@ -83,16 +87,19 @@ class TrainerConf:
     accelerator: str = "auto"
     devices: int = 1
     init_steps: int = 300
-    fit_steps: int = 800
+    fit_steps: int = 1000
     refine: bool = True
-    refine_init_steps: int = 200
-    refine_fit_steps: int = 400
+    refine_init_steps: int = 100
+    refine_fit_steps: int = 300
+    refine_lr: float = 1e-4
     lr: float = 1e-3
     warmup_steps: int = 50
-    lr_decay: float = 0.95
-    lr_decay_every: int = 200
+    lr_decay: float = 0.65
+    lr_decay_every: int = 100
     batch_views: int = 20
     min_loss: float = 0.0
+    fit_intensities: bool = True
+    intensity_lr: float = 1e-2
     band_px: float = 1.0
     band_start_px: float = 4.0
     band_anneal: float = 0.6
@@ -116,6 +123,8 @@ class TrainerConf:
                     "min_loss", "kappa", "heldout_every"):
             require(getattr(self, key) >= 0, f"trainer.{key}", ">= 0", getattr(self, key))
         require(self.lr > 0, "trainer.lr", "> 0", self.lr)
+        require(self.refine_lr > 0, "trainer.refine_lr", "> 0", self.refine_lr)
+        require(self.intensity_lr > 0, "trainer.intensity_lr", "> 0", self.intensity_lr)
         require(0 < self.lr_decay <= 1, "trainer.lr_decay", "in (0, 1]", self.lr_decay)
         require(self.band_px > 0, "trainer.band_px", "> 0", self.band_px)
         require(self.band_start_px >= self.band_px, "trainer.band_start_px", ">= trainer.band_px",
@@ -183,9 +192,13 @@ class FieldStage(L.LightningModule):
         rate = self.field.sdf_rate(c, times) / self.grid.extent
         return self.field.sdf(c, times).reshape(shape), rate
 
+    def param_groups(self) -> list[dict]:
+        """Adam's parameter groups: the field at trainer.lr."""
+        return [{"params": list(self.field.parameters())}]
+
     def configure_optimizers(self):
         conf = self.conf
-        opt = torch.optim.Adam(self.field.parameters(), lr=conf.lr)
+        opt = torch.optim.Adam(self.param_groups(), lr=conf.lr)
 
         def factor(step: int) -> float:
             return min(1.0, (step + 1) / max(1, conf.warmup_steps)) * conf.lr_decay ** (step // conf.lr_decay_every)
@@ -237,7 +250,18 @@ class SinogramFit(FieldStage):
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
         self.register_buffer("times", views.times, persistent=False)
-        self.register_buffer("intensities", intensities, persistent=False)
+        self.log_intensities = torch.nn.Parameter(intensities.log(), requires_grad=conf.fit_intensities)
+
+    @property
+    def intensities(self) -> Tensor:
+        """a(k) [K]: fitted with the field when ``fit_intensities`` (log-parameterised, stays > 0)."""
+        return self.log_intensities.exp()
+
+    def param_groups(self) -> list[dict]:
+        groups = super().param_groups()
+        if self.conf.fit_intensities:
+            groups.append({"params": [self.log_intensities], "lr": self.conf.intensity_lr})
+        return groups
 
     def band(self) -> float:
         """Current ramp width in physical units."""
@@ -257,8 +281,9 @@ class SinogramFit(FieldStage):
                  "tv_space": (gx.abs() + gy.abs()).mean(), "tv_time": rate.abs().mean()}
         w = self.loss_conf
         loss = sinogram + w.eikonal * terms["eikonal"] + w.tv_space * terms["tv_space"] + w.tv_time * terms["tv_time"]
-        self.log_dict({f"train/{k}": v for k, v in terms.items()} | {"train/loss": loss,
-                      "train/band_px": band / self.grid.pixel_size})
+        extra = {"train/loss": loss, "train/band_px": band / self.grid.pixel_size}
+        extra |= {f"train/intensity_{k}": a for k, a in enumerate(self.intensities.detach())}
+        self.log_dict({f"train/{k}": v for k, v in terms.items()} | extra)
         return loss
 
     @torch.no_grad()
@@ -325,7 +350,7 @@ class MinLossStop(Callback):
 
 
 class DivergenceCheck(Callback):
-    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the first step's."""
+    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss."""
 
     def __init__(self, stage: str, factor: float) -> None:
         self.stage, self.factor, self.first = stage, factor, None
