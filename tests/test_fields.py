@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
-from nct.fields import ModelConf, build_field
+from nct.fields import GridField, ModelConf, build_field
 
 XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
 SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
@@ -74,3 +75,51 @@ def test_describe_counts_parameters():
 def test_bad_config_names_the_key(key, value):
     with pytest.raises(ValueError, match=f"model.{key}"):
         ModelConf(**{key: value})
+
+
+GRID = dict(family="grid", resolution=16, temporal_resolution=8, levels=2)
+
+
+def randomised(f):
+    """The field with every parameter drawn at random (grids start at zero)."""
+    with torch.no_grad():
+        for p in f.parameters():
+            p.normal_(generator=torch.Generator().manual_seed(p.numel()))
+    return f
+
+
+@pytest.mark.parametrize("family", ["siren", "grid"])
+def test_lattice_evaluation_matches_points(family):
+    """``on_lattice`` (separable matrix products for grids) gives the point-wise values at pixel centres."""
+    from nct.fields import lattice_points
+    from nct.scanner import ImageGrid
+
+    x, y = ImageGrid(24, 3.0).xy()
+    centres = torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / 1.5).float()
+    torch.testing.assert_close(lattice_points(24), centres, atol=1e-6, rtol=0)
+    f = randomised(field(n_terms=3, **GRID)) if family == "grid" else field(n_terms=3)
+    a, b = f.coefficients(centres), f.on_lattice(24)
+    torch.testing.assert_close(b.static, a.static, atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(b.temporal, a.temporal, atol=1e-5, rtol=1e-5)
+
+
+def test_grid_family_interpolates_its_nodes_bilinearly():
+    """At a node the grid field is the sum of its levels there; halfway between it is the mean."""
+    f = randomised(field(n_terms=0, **GRID))
+    fine, coarse = (g[0, 0] for g in f.static.grids)  # 16 and 8 cells per side, object 0
+    node = torch.tensor([[-1.0, -1.0], [1.0, 1.0]])
+    torch.testing.assert_close(f.coefficients(node).static[0], torch.stack([fine[0, 0] + coarse[0, 0],
+                                                                           fine[-1, -1] + coarse[-1, -1]]))
+    half = torch.tensor([[-1 + 1 / 15, -1.0]])  # halfway between fine nodes 0 and 1 along x
+    expected = (fine[0, 0] + fine[0, 1]) / 2 + coarse[0, 0] + (coarse[0, 1] - coarse[0, 0]) * (7 / 15) / 2
+    torch.testing.assert_close(f.coefficients(half).static[0, 0], expected, atol=1e-6, rtol=1e-6)
+
+
+def test_grid_family_sizes_and_validation():
+    f = field(n_terms=4, **GRID)
+    assert f.describe()["n_params"] == 2 * (16**2 + 8**2) + 2 * 4 * 2 * (8**2 + 4**2)
+    assert isinstance(f, GridField) and f.describe()["static"] is False
+    with pytest.raises(ValueError, match="model.resolution must be >= 2\\*\\*model.levels = 8"):
+        ModelConf(family="grid", resolution=4, levels=3)
+    with pytest.raises(ValueError, match="model.family must be one of"):
+        ModelConf(family="hashgrid")

@@ -14,6 +14,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
+from nct.capacity import CapacityConf
 from nct.errors import InputError
 from nct.fields import ModelConf
 from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
@@ -145,6 +146,7 @@ class NCTConf:
     image: ImageConf = field(default_factory=ImageConf)
     fbp: FBPConf = field(default_factory=FBPConf)
     model: ModelConf = field(default_factory=ModelConf)
+    capacity: CapacityConf = field(default_factory=CapacityConf)
     loss: LossConf = field(default_factory=LossConf)
     trainer: TrainerConf = field(default_factory=TrainerConf)
     logger: LoggerConf = field(default_factory=LoggerConf)
@@ -171,6 +173,7 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "image": {"default": ImageConf},
     "fbp": {"default": FBPConf},
     "model": {"default": ModelConf},
+    "capacity": {"default": CapacityConf},
     "loss": {"default": LossConf},
     "trainer": {"default": TrainerConf},
     "logger": {"default": LoggerConf},

@@ -1,7 +1,9 @@
-"""Neural signed-distance fields g(x, t) = g_E(x) + g_V(x, t) of K objects (paper Sec. IV-A).
+"""Signed-distance fields g(x, t) = g_E(x) + g_V(x, t) of K objects (paper Sec. IV-A).
 
-Time enters only through a Fourier basis, so the networks see x alone: evaluate them once on the
-grid and form g(., t) for any number of times by a product with the basis (see ``Field.sdf``).
+Time enters only through a Fourier basis, so the spatial parts see x alone: evaluate them once on
+the grid and form g(., t) for any number of times by a product with the basis (see ``Field.sdf``).
+Two families hold the spatial parts: SIRENs (the paper's) and explicit multi-resolution grids
+(``GridField``: bilinear lookups instead of a network, several times cheaper per step).
 """
 
 from __future__ import annotations
@@ -10,9 +12,10 @@ import math
 from dataclasses import dataclass
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
-FAMILIES = ("siren",)
+FAMILIES = ("siren", "grid")
 HIDDEN_OMEGA = 30.0  # SIREN's frequency for hidden layers (Sitzmann et al.); its init compensates
 
 
@@ -26,9 +29,13 @@ def require(ok: bool, key: str, expected: str, got: object) -> None:
 class ModelConf:
     """The neural SDF field (config group ``model``).
 
-    name: the group option. family: "siren" (SIREN static net + SIREN coefficient net).
-    width, depth: hidden width and number of hidden layers of the static net g_E.
-    temporal_width, temporal_depth: the same for the coefficient net of g_V.
+    name: the group option. family: "siren" (SIREN static net + SIREN coefficient net) or "grid"
+    (explicit grids, see ``GridField``).
+    width, depth: hidden width and number of hidden layers of the static net g_E (siren).
+    temporal_width, temporal_depth: the same for the coefficient net of g_V (siren).
+    resolution: cells per side of the finest static grid (grid); levels: grids per part, each
+    half the resolution of the one before, summed (grid). temporal_resolution: cells per side of
+    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse.
     n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
     f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
         rotation (time is measured in rotations from the first view). Keep it well below 1: a
@@ -47,14 +54,20 @@ class ModelConf:
     n_terms: int = 32
     f_max: float = 0.3
     omega0: float = 10.0
+    resolution: int = 128
+    levels: int = 3
+    temporal_resolution: int = 32
 
     def __post_init__(self) -> None:
         require(self.family in FAMILIES, "model.family", f"one of {FAMILIES}", self.family)
-        for key in ("width", "depth", "temporal_width", "temporal_depth"):
+        for key in ("width", "depth", "temporal_width", "temporal_depth", "levels"):
             require(getattr(self, key) >= 1, f"model.{key}", ">= 1", getattr(self, key))
         require(self.n_terms >= 0, "model.n_terms", ">= 0", self.n_terms)
         require(self.f_max >= 0, "model.f_max", ">= 0", self.f_max)
         require(self.omega0 > 0, "model.omega0", "> 0", self.omega0)
+        for key in ("resolution", "temporal_resolution"):
+            require(getattr(self, key) >= 2 ** self.levels, f"model.{key}", f">= 2**model.levels = {2 ** self.levels}",
+                    getattr(self, key))
 
 
 class Siren(nn.Module):
@@ -98,20 +111,30 @@ class Field(nn.Module):
         super().__init__()
         self.n_objects = n_objects
         self.n_terms = conf.n_terms
-        self.static = Siren(2, conf.width, conf.depth, n_objects, conf.omega0)
-        self.temporal = (
-            Siren(2, conf.temporal_width, conf.temporal_depth, 2 * conf.n_terms * n_objects, conf.omega0)
-            if conf.n_terms
-            else None
-        )
+        self.static = self.spatial(conf, n_objects, temporal=False)
+        self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
 
+    @staticmethod
+    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
+        """The module mapping points [P, 2] to ``n_out`` values [P, n_out]: a SIREN here."""
+        if temporal:
+            return Siren(2, conf.temporal_width, conf.temporal_depth, n_out, conf.omega0)
+        return Siren(2, conf.width, conf.depth, n_out, conf.omega0)
+
     def coefficients(self, xy: Tensor) -> Coefficients:
-        """Evaluate both networks once at points ``xy`` [P, 2]; time enters later by ``sdf``."""
-        static = self.static(xy).T
-        if self.temporal is None:
+        """Evaluate both spatial parts once at points ``xy`` [P, 2]; time enters later by ``sdf``."""
+        return self._split(self.static(xy).T, None if self.temporal is None else self.temporal(xy).T)
+
+    def on_lattice(self, size: int) -> Coefficients:
+        """``coefficients`` at the pixel centres of a size x size image (rows down, P = size**2)."""
+        return self.coefficients(lattice_points(size).to(self.omega.device))
+
+    def _split(self, static: Tensor, temporal: Tensor | None) -> Coefficients:
+        """Coefficients from static [K, P] and temporal [2MK, P] values."""
+        if temporal is None:
             return Coefficients(static, None)
-        return Coefficients(static, self.temporal(xy).T.reshape(2 * self.n_terms, self.n_objects, -1))
+        return Coefficients(static, temporal.reshape(2 * self.n_terms, self.n_objects, -1))
 
     def basis(self, t: Tensor) -> Tensor:
         """The Fourier basis with the 1/M factor: t [T] -> [T, 2M] (sines, then cosines)."""
@@ -147,8 +170,68 @@ class Field(nn.Module):
         }
 
 
+class MultiGrid(nn.Module):
+    """Sum of ``levels`` grids of ``n_out`` channels, res, res/2, ... cells per side, looked up
+    bilinearly: [P, 2] in [-1, 1] -> [P, n_out]. Starts at zero; coarse levels move whole regions
+    per step, fine ones the detail, so a fit goes coarse to fine by itself."""
+
+    def __init__(self, n_out: int, resolution: int, levels: int) -> None:
+        super().__init__()
+        self.grids = nn.ParameterList(
+            nn.Parameter(torch.zeros(1, n_out, resolution >> i, resolution >> i)) for i in range(levels)
+        )
+
+    def forward(self, xy: Tensor) -> Tensor:
+        where = xy.view(1, 1, -1, 2)
+        total = sum(F.grid_sample(g, where, mode="bilinear", padding_mode="border", align_corners=True)
+                    for g in self.grids)
+        return total[0, :, 0].T
+
+    def on_lattice(self, size: int) -> Tensor:
+        """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
+        lookups on a lattice are separable, two small matrix products per level (much cheaper
+        than ``grid_sample``'s backward on a CPU)."""
+        u = (2 * torch.arange(size, dtype=torch.float32, device=self.grids[0].device) + 1) / size - 1
+        total = 0
+        for g in self.grids:
+            cells = g.shape[-1]
+            total = total + interpolation_matrix(-u, cells) @ g[0] @ interpolation_matrix(u, cells).T  # rows: y down
+        return total.reshape(total.shape[0], -1)
+
+
+class GridField(Field):
+    """The same g(x, t) with explicit grids for g_E and for the Fourier coefficients of g_V."""
+
+    @staticmethod
+    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
+        return MultiGrid(n_out, conf.temporal_resolution if temporal else conf.resolution, conf.levels)
+
+    def on_lattice(self, size: int) -> Coefficients:
+        return self._split(self.static.on_lattice(size),
+                           None if self.temporal is None else self.temporal.on_lattice(size))
+
+
+def lattice_points(size: int) -> Tensor:
+    """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2]."""
+    u = (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
+    y, x = torch.meshgrid(-u, u, indexing="ij")
+    return torch.stack([x.ravel(), y.ravel()], dim=1)
+
+
+def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
+    """Linear interpolation from ``cells`` nodes spanning [-1, 1] to coordinates u [n]: [n, cells]."""
+    pos = ((u + 1) / 2 * (cells - 1)).clamp(0, cells - 1)
+    left = pos.floor().long().clamp(max=cells - 2)
+    weight = pos - left
+    rows = torch.arange(u.shape[0])
+    m = torch.zeros(u.shape[0], cells, dtype=u.dtype, device=u.device)
+    m[rows, left] = 1 - weight
+    m[rows, left + 1] = weight
+    return m
+
+
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:
     """The field of ``conf.family`` for ``n_objects`` objects."""
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
-    return Field(conf, n_objects, generator)
+    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)

@@ -16,6 +16,7 @@ import lightning as L
 import numpy as np
 import torch
 
+from nct.capacity import CapacityConf, Rung, explain, next_rung_pays
 from nct.fields import Field, ModelConf, build_field
 from nct.projector import fbp_frames
 from nct.render import intensity
@@ -76,6 +77,41 @@ def field_frames(fit: SinogramFit | InitFit, times: torch.Tensor, chunk: int = 3
     return np.concatenate([fit.grid_sdf(part.to(fit.device))[0].cpu().numpy() for part in times.split(chunk)])
 
 
+@dataclass
+class _Problem:
+    """What every pass fits: the grid, losses, views, the SDF-frame times and the view split."""
+
+    grid: ImageGrid
+    loss: LossConf
+    views: Views
+    init_times: torch.Tensor
+    fit_views: np.ndarray
+    held_views: np.ndarray
+    rng: np.random.Generator
+    log_dir: Path | None
+    logger: str
+
+
+def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], conf: TrainerConf,
+              targets: np.ndarray, amplitudes: torch.Tensor, stages: dict) -> SinogramFit:
+    """One pass: InitFit to SDF ``targets`` then SinogramFit; records both stages in ``stages``."""
+    init_steps, fit_steps = steps
+    n_init = prob.init_times.shape[0]
+    init = InitFit(net, prob.grid, conf, prob.loss, torch.from_numpy(targets), prob.init_times)
+    stages[prefix + "init"] = run_stage(
+        init, IndexDataModule(np.arange(n_init), conf.batch_views, init_steps, _stream(prob.rng)),
+        init_steps, prefix + "init", conf, prob.log_dir, prob.logger)
+    fit = SinogramFit(net, prob.grid, conf, prob.loss, prob.views, amplitudes, fit_steps)
+    stages[prefix + "fit"] = run_stage(
+        fit, IndexDataModule(prob.fit_views, conf.batch_views, fit_steps, _stream(prob.rng)),
+        fit_steps, prefix + "fit", conf, prob.log_dir, prob.logger, (MinLossStop(conf.min_loss),))
+    return fit
+
+
+def _heldout(prob: _Problem, fit: SinogramFit) -> float:
+    return fit.sinogram_loss(torch.from_numpy(prob.held_views)) if len(prob.held_views) else float("nan")
+
+
 def reconstruct(
     sino: Sinogram,
     grid: ImageGrid,
@@ -89,8 +125,14 @@ def reconstruct(
     fbp_filter: str = "ramp",
     fbp_window_deg: float = 180.0,
     n_objects: int = 1,
+    capacity: CapacityConf | None = None,
 ) -> NCTResult:
-    """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``."""
+    """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
+
+    With ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``)
+    and the refinement continues the chosen rung.
+    """
+    capacity = capacity or CapacityConf()
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if logger not in LOGGERS:
@@ -99,49 +141,53 @@ def reconstruct(
     rng = np.random.default_rng(seed)
     clock = rotations_since_start(sino)
     fit_views, held_views = split_views(sino.n_views, trainer.heldout_every)
+    if capacity.auto and not len(held_views):
+        raise ValueError("capacity.auto needs held-out views: set trainer.heldout_every >= 2")
     n_init = max(2, round(trainer.init_frames_per_rotation * float(clock(sino.times[-1]))))
     init_times = sino.times[0] + (np.arange(n_init) + 0.5) * (np.ptp(sino.times) / n_init)
 
     fbp = fbp_frames(subset(sino, fit_views), grid, init_times, fbp_window_deg, fbp_filter)
     seg = segment(fbp, n_objects, rng, trainer.kappa, trainer.gmm_share)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
-    amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), float(sino.bin_spacing))
+    prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger)
+    amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
 
-    # The second pass continues the first pass's field (from random weights it would need as many
-    # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
-    passes = [("", trainer.init_steps, trainer.fit_steps, trainer)]
-    if trainer.refine:
-        second = replace(trainer, lr=trainer.refine_lr, band_start_px=trainer.band_px)
-        passes.append(("refine_", trainer.refine_init_steps, trainer.refine_fit_steps, second))
-    net = build_field(model, n_objects, torch.Generator().manual_seed(seed))
     stages: dict = {}
-    for i, (prefix, init_steps, fit_steps, conf) in enumerate(passes):
-        init = InitFit(net, grid, conf, loss, torch.from_numpy(targets), clock(init_times))
-        stages[prefix + "init"] = run_stage(
-            init, IndexDataModule(np.arange(n_init), trainer.batch_views, init_steps, _stream(rng)),
-            init_steps, prefix + "init", conf, log_dir, logger)
-        fit = SinogramFit(net, grid, conf, loss, views, amplitudes, fit_steps)
-        stages[prefix + "fit"] = run_stage(
-            fit, IndexDataModule(fit_views, trainer.batch_views, fit_steps, _stream(rng)),
-            fit_steps, prefix + "fit", conf, log_dir, logger, (MinLossStop(trainer.min_loss),))
-        amplitudes = fit.intensities.detach().cpu()
-        if i + 1 < len(passes):
-            targets = masks_to_sdf(binarise(field_frames(fit, clock(init_times))), grid.pixel_size)
+    ladder = capacity.ladder if capacity.auto else [model.n_terms]
+    tried: list[tuple[Rung, Field, SinogramFit]] = []
+    for m in ladder:
+        net = build_field(replace(model, n_terms=m), n_objects, torch.Generator().manual_seed(seed))
+        fit = _fit_pass(prob, net, f"m{m}_" if capacity.auto else "", (trainer.init_steps, trainer.fit_steps),
+                        trainer, targets, amplitudes, stages)
+        tried.append((Rung(m, _heldout(prob, fit), net.describe()["n_params"]), net, fit))
+        if len(tried) > 1 and not next_rung_pays(tried[-2][0], tried[-1][0], capacity.tolerance):
+            break
+    paid = len(tried) == 1 or next_rung_pays(tried[-2][0], tried[-1][0], capacity.tolerance)
+    chosen, net, fit = tried[-1] if paid else tried[-2]
 
+    if trainer.refine:
+        # The second pass continues the chosen field (from random weights it would need as many
+        # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
+        second = replace(trainer, lr=trainer.refine_lr, band_start_px=trainer.band_px)
+        targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size)
+        fit = _fit_pass(prob, net, "refine_", (trainer.refine_init_steps, trainer.refine_fit_steps), second,
+                        targets, fit.intensities.detach().cpu(), stages)
+
+    amplitudes = fit.intensities.detach().cpu()
     sdf = field_frames(fit, clock(frame_times))
-    band = trainer.band_px * grid.pixel_size
-    frames = intensity(torch.from_numpy(sdf), amplitudes, band, trainer.mu).numpy()
-    heldout = fit.sinogram_loss(torch.from_numpy(held_views)) if len(held_views) else float("nan")
+    frames = intensity(torch.from_numpy(sdf), amplitudes, trainer.band_px * grid.pixel_size, trainer.mu).numpy()
+    described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
+    if capacity.auto:
+        described["choice"] = {
+            "ladder": [vars(r) for r, _, _ in tried], "tolerance": capacity.tolerance,
+            "reason": explain([r for r, _, _ in tried], chosen, capacity.tolerance),
+        }
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf, intensities=amplitudes.double().numpy(),
-                     heldout_loss=heldout, stages=stages, capacity=_capacity(net, model))
+                     heldout_loss=_heldout(prob, fit), stages=stages, capacity=described)
 
 
 def _stream(rng: np.random.Generator) -> int:
     """A seed for a stage's own sampler, drawn from the run's generator."""
     return int(rng.integers(2**31 - 1))
-
-
-def _capacity(net: Field, model: ModelConf) -> dict:
-    return {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}

@@ -27,7 +27,7 @@ from nct.projector import fbp_frames
 from nct.scanner import ImageGrid
 from nct.simulate import simulate
 from nct.sinogram import Sinogram
-from nct.tracking import flat_hparams, write_run_summary
+from nct.tracking import flat_hparams, write_capacity, write_run_summary
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +73,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
             log_dir=None if conf.logger.name == "none" else out_dir, logger=conf.logger.name,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
+            capacity=conf.capacity,
         )
         frames["nct"] = result.frames
         extra = {"heldout_loss": result.heldout_loss, "capacity": result.capacity, "stages": result.stages,
@@ -121,6 +122,10 @@ def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict
         final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
         final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
         final["hp/wall_time_s"] = result["wall_time_s"]
+        capacity = result.get("capacity")
+        if capacity:
+            final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
+            write_capacity(out_dir / "tb", capacity)
         write_run_summary(out_dir / "tb", flat_hparams(cfg), final, shown)
 
 

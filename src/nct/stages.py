@@ -150,12 +150,6 @@ class Views:
         return float(self.values.abs().mean().clamp_min(1e-12))
 
 
-def grid_points(grid: ImageGrid) -> Tensor:
-    """Pixel centres scaled to [-1, 1], x right and y up, row-major: [H*W, 2] float32."""
-    x, y = grid.xy()
-    return torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / (grid.extent / 2)).float()
-
-
 def spatial_gradient(sdf: Tensor, pixel_size: float) -> tuple[Tensor, Tensor]:
     """Forward differences dg/dx, dg/dy on the grid: [..., H, W] -> two [..., H-1, W-1]."""
     gx = (sdf[..., :-1, 1:] - sdf[..., :-1, :-1]) / pixel_size
@@ -183,11 +177,10 @@ class FieldStage(L.LightningModule):
         self.field = field
         self.grid = grid
         self.conf = conf
-        self.register_buffer("xy", grid_points(grid), persistent=False)
 
     def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
         """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt in FOV sides per rotation."""
-        c = self.field.coefficients(self.xy)
+        c = self.field.on_lattice(self.grid.size)
         shape = (times.shape[0], self.field.n_objects, self.grid.size, self.grid.size)
         rate = self.field.sdf_rate(c, times) / self.grid.extent
         return self.field.sdf(c, times).reshape(shape), rate

@@ -48,3 +48,19 @@ def write_run_summary(tb_dir: Path, hparam_values: dict, final: dict[str, float]
         for i in np.unique(np.linspace(0, n - 1, min(n_images, n)).round().astype(int)):
             row = np.concatenate([np.clip(f[i] / vmax, 0, 1) for f in frames.values()], axis=1)
             w.add_image("frames/" + "|".join(frames), row, global_step=int(i), dataformats="HW")
+
+
+def write_capacity(tb_dir: Path, capacity: dict) -> None:
+    """The model's capacity as text (family, terms, parameters and, if chosen automatically, why)
+    and the held-out loss of each fitted rung as ``capacity/heldout_loss`` over the term count."""
+    tb_dir.mkdir(parents=True, exist_ok=True)
+    lines = [f"{capacity['family']} field, {capacity['n_terms']} temporal terms, {capacity['n_params']} parameters"]
+    choice = capacity.get("choice")
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        if choice:
+            lines.append(f"chosen automatically: {choice['reason']}")
+            lines += ["", "| terms | held-out loss | parameters |", "|---|---|---|"]
+            for rung in choice["ladder"]:
+                lines.append(f"| {rung['n_terms']} | {rung['heldout_loss']:.5g} | {rung['n_params']} |")
+                w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
+        w.add_text("capacity", "\n".join(lines))

@@ -1,0 +1,60 @@
+"""No more model than the scene needs: choose the number of temporal terms from held-out views.
+
+The ladder lists Fourier term counts M from small to large (0: a static model). Each rung is
+fitted (first pass) and scored by its relative sinogram L1 on the held-out views, which no fit
+ever sees. Climbing stops at the first rung that does not improve on the one below by more than
+``tolerance`` (relative); the one below is chosen. Only the data decide: no truth is read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from nct.fields import require
+
+
+@dataclass
+class CapacityConf:
+    """How the model's capacity is chosen (config group ``capacity``).
+
+    auto: climb ``ladder`` (else use model.n_terms as configured). ladder: Fourier term counts,
+    strictly increasing (0 = static). tolerance: the smallest relative drop of the held-out
+    loss that justifies the next rung.
+    """
+
+    name: str = "fixed"
+    auto: bool = False
+    ladder: list[int] = field(default_factory=lambda: [0, 8, 32])
+    tolerance: float = 0.05
+
+    def __post_init__(self) -> None:
+        require(len(self.ladder) >= 1, "capacity.ladder", "a non-empty list of term counts", self.ladder)
+        require(all(m >= 0 for m in self.ladder), "capacity.ladder", "term counts >= 0", self.ladder)
+        require(all(a < b for a, b in zip(self.ladder[:-1], self.ladder[1:])), "capacity.ladder",
+                "strictly increasing", self.ladder)
+        require(0 <= self.tolerance < 1, "capacity.tolerance", "in [0, 1)", self.tolerance)
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One fitted rung: its term count, held-out loss and parameter count."""
+
+    n_terms: int
+    heldout_loss: float
+    n_params: int
+
+
+def next_rung_pays(below: Rung, above: Rung, tolerance: float) -> bool:
+    """Whether ``above`` lowers the held-out loss of ``below`` by more than ``tolerance`` (relative)."""
+    return above.heldout_loss < (1 - tolerance) * below.heldout_loss
+
+
+def explain(tried: list[Rung], chosen: Rung, tolerance: float) -> str:
+    """One sentence saying why ``chosen`` was kept."""
+    above = [r for r in tried if r.n_terms > chosen.n_terms]
+    what = "a static model" if chosen.n_terms == 0 else f"{chosen.n_terms} temporal terms"
+    if not above:
+        return f"{what}: the top of the ladder (each rung lowered the held-out loss by more than {tolerance:.0%})"
+    gain = 1 - above[0].heldout_loss / chosen.heldout_loss
+    return (f"{what}: {above[0].n_terms} terms changed the held-out loss by {-gain:+.1%} "
+            f"({chosen.heldout_loss:.4g} -> {above[0].heldout_loss:.4g}), not better by more than {tolerance:.0%}")

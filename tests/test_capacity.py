@@ -1,0 +1,72 @@
+"""Capacity from held-out views: the rule on hand-made numbers, and a static scene ending with a
+static model while a moving one gets temporal terms (small grid-family fits, ~10 s each)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nct.capacity import CapacityConf, Rung, explain, next_rung_pays
+from nct.fields import ModelConf
+from nct.method import reconstruct
+from nct.metrics import frame_metrics
+from nct.phantoms import CircleConf, StaticConf, build_phantom
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
+from nct.stages import LossConf, TrainerConf
+
+GRID = ImageGrid(32)
+MODEL = ModelConf(family="grid", resolution=32, temporal_resolution=16, levels=3)
+TRAINER = TrainerConf(accelerator="cpu", init_steps=100, fit_steps=200, refine=False, progress_bar=False)
+AUTO = CapacityConf(name="auto", auto=True, ladder=[0, 8, 32], tolerance=0.05)
+
+
+def test_rule_on_hand_made_numbers():
+    static, small, big = Rung(0, 0.40, 100), Rung(8, 0.025, 200), Rung(32, 0.024, 500)
+    assert next_rung_pays(static, small, 0.05) and not next_rung_pays(small, big, 0.05)
+    assert next_rung_pays(small, big, 0.0)
+    assert explain([static, small, big], small, 0.05).startswith("8 temporal terms: 32 terms changed the held-out "
+                                                                 "loss by -4.0%")
+    assert explain([static, small], static, 0.05).startswith("a static model: 8 terms")
+    assert "top of the ladder" in explain([static, small], small, 0.05)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(ladder=[]), "capacity.ladder must be a non-empty list"),
+    (dict(ladder=[0, 8, 8]), "capacity.ladder must be strictly increasing"),
+    (dict(ladder=[-1, 8]), "capacity.ladder must be term counts >= 0"),
+    (dict(tolerance=1.5), "capacity.tolerance must be in \\[0, 1\\)"),
+])
+def test_bad_settings_are_named(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CapacityConf(**kwargs)
+
+
+def choose(phantom_conf, seed: int = 0):
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
+    phantom = build_phantom(phantom_conf, scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(seed))
+    n_objects = len(phantom.intensities)
+    result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
+                         n_objects=n_objects, capacity=AUTO)
+    return result, float(np.median(frame_metrics(result.frames, sino.truth.frames, sino.truth.level).dice))
+
+
+def test_static_scene_gets_a_static_model():
+    result, dice = choose(StaticConf())
+    assert result.capacity["n_terms"] == 0 and result.capacity["static"]
+    ladder = result.capacity["choice"]["ladder"]
+    assert [r["n_terms"] for r in ladder] == [0, 8]  # stopped as soon as 8 terms did not pay
+    assert ladder[1]["heldout_loss"] > 0.95 * ladder[0]["heldout_loss"]
+    assert result.capacity["choice"]["reason"].startswith("a static model")
+    assert dice > 0.97
+
+
+def test_moving_scene_gets_temporal_terms():
+    result, dice = choose(CircleConf(displacement_deg=100.0))
+    ladder = result.capacity["choice"]["ladder"]
+    assert result.capacity["n_terms"] > 0
+    assert ladder[1]["heldout_loss"] < 0.5 * ladder[0]["heldout_loss"]  # static cannot explain the motion
+    assert set(result.stages) >= {"m0_init", "m0_fit", "m8_init", "m8_fit"}
+    assert dice > 0.85
