@@ -223,3 +223,39 @@ def test_stability_plans_every_setting_and_maps_failures(tmp_path):
     note = (tmp_path / "stability.md").read_text()
     assert "| views | none (≥ 0.85 everywhere) | 360 |" in note
     assert "| 360 | 0.850 [0.825–0.875] (0.800–0.900) 0/2 | 0.475 [0.237–0.712] (0.000–0.950) 1/2 |" in note
+
+
+def test_acceptance_criteria_on_hand_made_scores():
+    accept = load_script("acceptance")
+    S = accept.Scores
+    by = {("circle_100", "nct"): S(0.93, 0.91, 0.004, 0.01, 250.0, 0, 5),
+          ("circle_100", "fbp"): S(0.82, 0.82, 0.024, 0.03, 1.0, 0, 5),
+          ("heart_cine", "nct"): S(0.99, 0.98, 0.0002, 0.0051, 300.0, 0, 5),
+          ("heart_cine", "fbp"): S(0.98, 0.97, 0.002, 0.009, 1.0, 0, 5),
+          ("letters", "nct"): S(0.87, 0.80, 0.02, 0.05, 250.0, 0, 5),
+          ("letters", "fbp"): S(0.88, 0.88, 0.04, 0.05, 1.0, 0, 5),
+          ("static", "nct"): S(0.986, 0.95, 0.0001, 0.0001, 250.0, 1, 5),
+          ("static", "fbp"): S(0.997, 0.997, 0.0003, 0.0003, 1.0, 0, 5)}
+    rows = accept.criteria(by)
+    assert [r["passed"] for r in rows] == [True, True, True,  # circle: Dice, MSE, time
+                                           True, False,  # heart_cine: one frame at 0.0051
+                                           False,  # letters: above 0.86 but not above FBP
+                                           False]  # static: 0.986 < 0.997 - 0.01
+    assert rows[1]["criterion"] == "NCT MSE < FBP MSE" and rows[1]["measured"] == "0.0040 vs 0.0240"
+    assert accept.criteria({}) == []
+
+
+def test_acceptance_plans_fbp_360_for_the_circle_only(tmp_path):
+    accept = load_script("acceptance")
+    jobs = accept.plan(tmp_path, [0, 1])
+    labels = {(j.labels["scene"], j.labels["label"]) for j in jobs}
+    assert ("circle_100", "fbp360") in labels and ("static", "fbp360") not in labels
+    assert len(jobs) == 2 * (4 * 2 + 1)
+    assert "fbp.window_deg=360" in jobs[2].overrides + jobs[3].overrides
+
+
+def test_a_failed_seed_fails_the_frame_criterion(tmp_path):
+    accept = load_script("acceptance")
+    job = Job({"scene": "heart_cine", "label": "nct"}, "nct", 0, (), tmp_path / "r")
+    s = accept.scores([Record(job=job, status="diverged", error="loss nan")])
+    assert s.failed == 1 and s.dice == 0.0 and s.worst_frame_mse == math.inf
