@@ -6,7 +6,7 @@ process (nct.benchmarking). A run that fails, diverges, times out or scores NaN 
 as a failure. The breakdown point is the first setting (easy to hard) with median Dice < 0.85.
 Writes runs.csv, summary.csv, breakdown.csv, stability.png and stability.md.
 
-Run: python benchmarks/stability.py [--out DIR] [--quick] [--seeds 0 1 2 3 4] [--jobs N]
+Run: python benchmarks/stability.py [--out DIR] [--quick] [--axes full|quick] [--seeds 0 1 2 3 4] [--jobs N]
 """
 
 from __future__ import annotations
@@ -182,6 +182,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser = benchmark_parser("stability", __doc__.split("\n\n")[0],
                               "3 settings per axis, 2 seeds, 64-pixel images, a tenth of the NeuralCT steps",
                               "default: 0 1 2 3 4 (quick: 0 1)")
+    parser.add_argument("--axes", choices=("full", "quick"),
+                        help="settings per axis: full (7-8 per axis) or quick (3); default quick with --quick, else full")
     parser.add_argument("--base-displacement", type=float, default=40.0,
                         help="degrees per rotation of the circle on the noise and views axes (default 40)")
     args = parser.parse_args(argv)
@@ -189,7 +191,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     nct = scaled_steps(default_config(), 0.1) if args.quick else ()
     extra = QUICK_DATA if args.quick else ()
     command = "python benchmarks/stability.py " + " ".join(sys.argv[1:] if argv is None else argv)
-    run_benchmark(args.out, axes(args.quick, args.base_displacement), seeds, nct, args.jobs, args.resume, extra,
+    quick_axes = args.quick if args.axes is None else args.axes == "quick"
+    run_benchmark(args.out, axes(quick_axes, args.base_displacement), seeds, nct, args.jobs, args.resume, extra,
                   command=command.strip(), timeout_s=args.timeout, threads=args.threads)
     print((args.out / "stability.md").read_text())
     print(f"outputs in {args.out}")

@@ -129,8 +129,10 @@ def test_speed_configs_follow_the_configured_steps(tmp_path):
                                              "refine_fit_steps": 400, "warmup_steps": 50, "lr_decay_every": 200,
                                              "log_every_n_steps": 10}})
     cfgs = {c.name: c for c in speed.configs(defaults, quick=False, paper_steps=100)}
-    assert list(cfgs) == ["fbp", "nct-x0.25", "nct-x0.5", "nct-default", "nct-x2", "nct-small", "paper-10steps",
-                          "paper-100steps"]
+    assert list(cfgs) == ["fbp", "nct-x0.25", "nct-x0.5", "nct-default", "nct-x2", "nct-small", "grid-x0.5", "grid",
+                          "grid-auto", "nct-auto", "paper-10steps", "paper-100steps"]
+    assert cfgs["grid-auto"].overrides == ("model=grid", "capacity=auto")
+    assert cfgs["grid-x0.5"].overrides[:3] == ("model=grid", "trainer.init_steps=150", "trainer.fit_steps=400")
     assert cfgs["nct-x0.25"].overrides == (
         "trainer.init_steps=75", "trainer.fit_steps=200", "trainer.refine_init_steps=50",
         "trainer.refine_fit_steps=100", "trainer.warmup_steps=12", "trainer.lr_decay_every=50")
@@ -139,7 +141,7 @@ def test_speed_configs_follow_the_configured_steps(tmp_path):
                                "trainer.refine_init_steps=100", "trainer.refine_fit_steps=100")
     assert (paper.reference, paper.extrapolate_steps, paper.short, paper.n_seeds) == (True, 5000, "paper-10steps", 1)
     jobs = speed.plan(tmp_path, {"static": ("experiment=static",)}, list(cfgs.values()), [0, 1, 2])
-    assert len(jobs) == 6 * 3 + 2 and jobs[0].command()[3:5] == ["experiment=static", "logger=none"]
+    assert len(jobs) == 10 * 3 + 2 and jobs[0].command()[3:5] == ["experiment=static", "logger=none"]
 
 
 def speed_records(tmp_path: Path, default_dice: float, paper_dice: float) -> list[Record]:
