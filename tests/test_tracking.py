@@ -27,3 +27,23 @@ def test_flat_hparams_flattens_nested_config(tiny_cfg):
     assert flat["scanner.n_bins"] == 32 and flat["data.noise_i0"] == "None"
     assert all(isinstance(v, (bool, int, float, str)) for v in flat.values())
     assert np.isfinite(flat["loss.tv_space"])
+
+
+def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
+    """capacity=auto: metrics.json and TensorBoard both say which rungs were fitted and why one was kept."""
+    import json
+
+    cfg = tiny_cfg("capacity=auto", "capacity.ladder=[0,4]", "model=grid", "model.resolution=32",
+                   "model.temporal_resolution=8", "export.gif=false", "trainer.init_steps=20", "trainer.fit_steps=20")
+    run_job(cfg, run_dir)
+    capacity = json.loads((run_dir / "metrics.json").read_text())["capacity"]
+    ladder = capacity["choice"]["ladder"]
+    assert [r["n_terms"] for r in ladder] == [0, 4] and all(r["heldout_loss"] > 0 for r in ladder)
+    assert capacity["n_terms"] in (0, 4) and capacity["family"] == "grid"
+    acc = EventAccumulator(str(run_dir / "tb"))
+    acc.Reload()
+    assert [(e.step, round(e.value, 6)) for e in acc.Scalars("capacity/heldout_loss")] == [
+        (r["n_terms"], round(r["heldout_loss"], 6)) for r in ladder]
+    assert acc.Scalars("hp/n_terms")[0].value == capacity["n_terms"]
+    text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
+    assert capacity["choice"]["reason"] in text and "grid field" in text
