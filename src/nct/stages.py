@@ -187,7 +187,7 @@ class FieldStage(L.LightningModule):
 
     def param_groups(self) -> list[dict]:
         """Adam's parameter groups: the field at trainer.lr."""
-        return [{"params": list(self.field.parameters())}]
+        return [{"params": list(self.field.parameters()), "name": "field"}]
 
     def configure_optimizers(self):
         conf = self.conf
@@ -253,7 +253,7 @@ class SinogramFit(FieldStage):
     def param_groups(self) -> list[dict]:
         groups = super().param_groups()
         if self.conf.fit_intensities:
-            groups.append({"params": [self.log_intensities], "lr": self.conf.intensity_lr})
+            groups.append({"params": [self.log_intensities], "lr": self.conf.intensity_lr, "name": "intensities"})
         return groups
 
     def band(self) -> float:
