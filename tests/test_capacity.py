@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nct.capacity import CapacityConf, Rung, explain, next_rung_pays
+from nct.capacity import CapacityConf, Rung, climb, explain, next_rung_pays
 from nct.fields import ModelConf
 from nct.method import reconstruct
 from nct.metrics import frame_metrics
@@ -29,6 +29,20 @@ def test_rule_on_hand_made_numbers():
                                                                  "loss by -4.0%")
     assert explain([static, small], static, 0.05).startswith("a static model: 8 terms")
     assert "top of the ladder" in explain([static, small], small, 0.05)
+
+
+def test_climb_stops_at_the_first_rung_that_does_not_pay():
+    losses = {0: 0.40, 8: 0.025, 32: 0.024, 64: 0.001}
+    fitted = []
+
+    def fit(m):
+        fitted.append(m)
+        return Rung(m, losses[m], m)
+
+    tried, chosen = climb([0, 8, 32, 64], fit, 0.05)
+    assert fitted == [0, 8, 32] and chosen.n_terms == 8 and [r.n_terms for r in tried] == fitted
+    assert climb([0, 8], fit, 0.05)[1].n_terms == 8  # every rung paid: the top
+    assert climb([32], fit, 0.05)[1].n_terms == 32  # capacity fixed: one rung
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -8,6 +8,7 @@ ever sees. Climbing stops at the first rung that does not improve on the one bel
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from nct.fields import require
@@ -47,6 +48,16 @@ class Rung:
 def next_rung_pays(below: Rung, above: Rung, tolerance: float) -> bool:
     """Whether ``above`` lowers the held-out loss of ``below`` by more than ``tolerance`` (relative)."""
     return above.heldout_loss < (1 - tolerance) * below.heldout_loss
+
+
+def climb(ladder: list[int], fit: Callable[[int], Rung], tolerance: float) -> tuple[list[Rung], Rung]:
+    """Fit rungs of ``ladder`` in turn with ``fit`` until one does not pay; the fitted rungs and the chosen."""
+    tried: list[Rung] = []
+    for n_terms in ladder:
+        tried.append(fit(n_terms))
+        if len(tried) > 1 and not next_rung_pays(tried[-2], tried[-1], tolerance):
+            return tried, tried[-2]
+    return tried, tried[-1]
 
 
 def explain(tried: list[Rung], chosen: Rung, tolerance: float) -> str:

@@ -16,7 +16,7 @@ import lightning as L
 import numpy as np
 import torch
 
-from nct.capacity import CapacityConf, Rung, explain, next_rung_pays
+from nct.capacity import CapacityConf, Rung, climb, explain
 from nct.fields import Field, ModelConf, build_field
 from nct.projector import fbp_frames
 from nct.render import intensity
@@ -155,17 +155,17 @@ def reconstruct(
     amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
 
     stages: dict = {}
-    ladder = capacity.ladder if capacity.auto else [model.n_terms]
-    tried: list[tuple[Rung, Field, SinogramFit]] = []
-    for m in ladder:
-        net = build_field(replace(model, n_terms=m), n_objects, torch.Generator().manual_seed(seed))
-        fit = _fit_pass(prob, net, f"m{m}_" if capacity.auto else "", (trainer.init_steps, trainer.fit_steps),
+    fitted: dict[int, tuple[Field, SinogramFit]] = {}
+
+    def fit_rung(n_terms: int) -> Rung:
+        net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
+        fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (trainer.init_steps, trainer.fit_steps),
                         trainer, targets, amplitudes, stages)
-        tried.append((Rung(m, _heldout(prob, fit), net.describe()["n_params"]), net, fit))
-        if len(tried) > 1 and not next_rung_pays(tried[-2][0], tried[-1][0], capacity.tolerance):
-            break
-    paid = len(tried) == 1 or next_rung_pays(tried[-2][0], tried[-1][0], capacity.tolerance)
-    chosen, net, fit = tried[-1] if paid else tried[-2]
+        fitted[n_terms] = net, fit
+        return Rung(n_terms, _heldout(prob, fit), net.describe()["n_params"])
+
+    tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
+    net, fit = fitted[chosen.n_terms]
 
     if trainer.refine:
         # The second pass continues the chosen field (from random weights it would need as many
@@ -181,8 +181,8 @@ def reconstruct(
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
     if capacity.auto:
         described["choice"] = {
-            "ladder": [vars(r) for r, _, _ in tried], "tolerance": capacity.tolerance,
-            "reason": explain([r for r, _, _ in tried], chosen, capacity.tolerance),
+            "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
+            "reason": explain(tried, chosen, capacity.tolerance),
         }
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf, intensities=amplitudes.double().numpy(),
                      heldout_loss=_heldout(prob, fit), stages=stages, capacity=described)
