@@ -50,7 +50,7 @@ def test_truth_level_defaults_to_half_peak(tmp_path):
         (lambda a: a["sinogram"].__setitem__((2, 3), np.nan), "'sinogram'"),
         (lambda a: a.update(times=a["times"][::-1].copy()), "'times'"),
         (lambda a: a.update(angles=a["angles"][:5]), "'angles'"),
-        (lambda a: a.update(angles=a["angles"] * np.inf), "'angles'"),
+        (lambda a: a.update(angles=a["angles"] + np.inf), "'angles'"),
         (lambda a: a.update(bin_spacing=np.float64(-1.0)), "'bin_spacing'"),
         (lambda a: a.update(bin_spacing=np.array(["x"])), "'bin_spacing'"),
         (lambda a: a.update(extra=np.zeros(3)), "'extra'"),
