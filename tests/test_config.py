@@ -59,11 +59,15 @@ def test_composition_errors_name_the_key(override, error, words):
         ("seed=-1", "seed"),
         ("data=file", "data.path"),
         ("model.n_terms=-1", "model.n_terms"),
+        ("model=grid model.levels=9", "model.resolution must be >= 2**model.levels"),
+        ("capacity.ladder=[8,0]", "capacity.ladder must be strictly increasing"),
+        ("capacity.tolerance=2", "capacity.tolerance"),
+        ("capacity=auto trainer.heldout_every=1", "trainer.heldout_every must be >= 2"),
     ],
 )
 def test_range_errors_name_the_key(override, key):
     with pytest.raises(InputError) as info:
-        validate(compose_config([override]))
+        validate(compose_config(override.split()))
     assert key in str(info.value)
 
 

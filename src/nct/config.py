@@ -163,6 +163,9 @@ class NCTConf:
             raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
+        if self.capacity.auto and self.trainer.heldout_every < 2:
+            raise ValueError("capacity=auto scores each model on held-out views: trainer.heldout_every must be "
+                             f">= 2, got {self.trainer.heldout_every}")
 
 
 SCHEMAS: dict[str, dict[str, type]] = {
