@@ -65,7 +65,7 @@ class ModelConf:
         require(self.n_terms >= 0, "model.n_terms", ">= 0", self.n_terms)
         require(self.f_max >= 0, "model.f_max", ">= 0", self.f_max)
         require(self.omega0 > 0, "model.omega0", "> 0", self.omega0)
-        for key in ("resolution", "temporal_resolution"):
+        for key in ("resolution", "temporal_resolution") if self.family == "grid" else ():
             require(getattr(self, key) >= 2 ** self.levels, f"model.{key}", f">= 2**model.levels = {2 ** self.levels}",
                     getattr(self, key))
 
@@ -191,7 +191,7 @@ class MultiGrid(nn.Module):
         """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
         lookups on a lattice are separable, two small matrix products per level (much cheaper
         than ``grid_sample``'s backward on a CPU)."""
-        u = (2 * torch.arange(size, dtype=torch.float32, device=self.grids[0].device) + 1) / size - 1
+        u = pixel_centres(size).to(self.grids[0].device)
         total = 0
         for g in self.grids:
             cells = g.shape[-1]
@@ -211,9 +211,14 @@ class GridField(Field):
                            None if self.temporal is None else self.temporal.on_lattice(size))
 
 
+def pixel_centres(size: int) -> Tensor:
+    """Centres of ``size`` pixels spanning [-1, 1], increasing: [size] float32."""
+    return (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
+
+
 def lattice_points(size: int) -> Tensor:
     """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2]."""
-    u = (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
+    u = pixel_centres(size)
     y, x = torch.meshgrid(-u, u, indexing="ij")
     return torch.stack([x.ravel(), y.ravel()], dim=1)
 
