@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import torch
 import torch.nn.functional as F
@@ -191,11 +192,10 @@ class MultiGrid(nn.Module):
         """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
         lookups on a lattice are separable, two small matrix products per level (much cheaper
         than ``grid_sample``'s backward on a CPU)."""
-        u = pixel_centres(size).to(self.grids[0].device)
         total = 0
         for g in self.grids:
-            cells = g.shape[-1]
-            total = total + interpolation_matrix(-u, cells) @ g[0] @ interpolation_matrix(u, cells).T  # rows: y down
+            rows, cols = (m.to(g.device) for m in lattice_interpolation(size, g.shape[-1]))
+            total = total + rows @ g[0] @ cols.T
         return total.reshape(total.shape[0], -1)
 
 
@@ -216,8 +216,10 @@ def pixel_centres(size: int) -> Tensor:
     return (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
 
 
+@lru_cache(maxsize=8)
 def lattice_points(size: int) -> Tensor:
-    """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2]."""
+    """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2].
+    Cached (evaluated every step): do not modify the result."""
     u = pixel_centres(size)
     y, x = torch.meshgrid(-u, u, indexing="ij")
     return torch.stack([x.ravel(), y.ravel()], dim=1)
@@ -233,6 +235,14 @@ def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
     m[rows, left] = 1 - weight
     m[rows, left + 1] = weight
     return m
+
+
+@lru_cache(maxsize=32)
+def lattice_interpolation(size: int, cells: int) -> tuple[Tensor, Tensor]:
+    """Bilinear lookup of a cells x cells grid at the pixel centres of a size x size image, as
+    matrices for image rows (y runs down) and columns: two [size, cells]. Cached: do not modify."""
+    u = pixel_centres(size)
+    return interpolation_matrix(-u, cells), interpolation_matrix(u, cells)
 
 
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:
