@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nct.errors import NoObjectError
 from nct.metrics import dice
 from nct.segment import segment
 from nct.scanner import ImageGrid
@@ -56,6 +57,14 @@ def test_bad_input_is_named():
         segment(images, 0, np.random.default_rng(0))
     with pytest.raises(ValueError, match=r"\[F, H, W\]"):
         segment(images[0], 1, np.random.default_rng(0))
-    with pytest.raises(ValueError, match="distinct intensity levels"):
-        segment(np.zeros((3, 16, 16), np.float32) + np.random.default_rng(0).normal(size=(3, 16, 16)) * 1e-3,
-                5, np.random.default_rng(0), kappa=0)
+    with pytest.raises(ValueError, match="route"):
+        segment(images, 1, np.random.default_rng(0), route="kmeans")
+
+
+def test_pure_noise_holds_no_object():
+    """Only when nothing stands out of the background does segmentation stop, saying what it found."""
+    noise = np.random.default_rng(0).normal(size=(3, 16, 16)).astype(np.float32) * 1e-3
+    with pytest.raises(NoObjectError, match="found no object"):
+        segment(noise, 1, np.random.default_rng(0))
+    with pytest.raises(NoObjectError, match="Algorithm 1 found fewer"):
+        segment(noise, 1, np.random.default_rng(0), route="gmm")

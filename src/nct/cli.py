@@ -22,17 +22,18 @@ register_configs()
 @hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name="config")
 def app(cfg: DictConfig) -> float | None:
     """Run one reconstruction into Hydra's output folder; return the truth-free held-out loss."""
-    from nct.errors import InputError
+    from nct.errors import InputError, MethodError
     from nct.pipeline import run_job
 
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
     try:
         return run_job(cfg, out_dir, list(hydra_cfg.overrides.task))
-    except InputError as err:
+    except (InputError, MethodError) as err:
+        # Expected failures: one line; the run folder's status.json keeps the reason.
         print(f"nct: error: {err}", file=sys.stderr)
         if hydra_cfg.mode.name == "RUN":
-            sys.exit(2)
+            sys.exit(2 if isinstance(err, InputError) else 1)
         raise
 
 

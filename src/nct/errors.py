@@ -5,5 +5,13 @@ class InputError(ValueError):
     """Bad user input (a config value or a data file): the message names the key and what was expected."""
 
 
-class DivergenceError(RuntimeError):
+class MethodError(RuntimeError):
+    """An expected failure of the method on this data: the run stops with one line and its reason."""
+
+
+class DivergenceError(MethodError):
     """A fit that diverged (NaN or exploding loss): the run is stopped and recorded as diverged."""
+
+
+class NoObjectError(MethodError):
+    """The data hold fewer objects than asked for (e.g. an empty sinogram): says what was found."""

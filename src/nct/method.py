@@ -18,6 +18,7 @@ import torch
 
 from nct.capacity import CapacityConf, Rung, climb, explain
 from nct.fields import Field, ModelConf, build_field
+from nct.normalise import field_of_view
 from nct.projector import fbp_frames
 from nct.render import intensity
 from nct.scanner import ImageGrid
@@ -36,7 +37,9 @@ class NCTResult:
     units, positive inside); intensities: [K] a(k) estimated from the data (Algorithm 1, then
     fitted with the field when trainer.fit_intensities); heldout_loss: relative
     sinogram L1 on the held-out views (NaN if none); stages: per stage {steps, losses,
-    wall_time_s}; capacity: description of the model.
+    wall_time_s}; capacity: description of the model; init: how the first SDF frames were
+    found (segment.py's route, background and object levels) and the units (normalise.py), in
+    the data's units.
     """
 
     frames: np.ndarray
@@ -45,6 +48,7 @@ class NCTResult:
     heldout_loss: float
     stages: dict = field(default_factory=dict)
     capacity: dict = field(default_factory=dict)
+    init: dict = field(default_factory=dict)
 
 
 def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor]:
@@ -129,6 +133,8 @@ def reconstruct(
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
+    The data are fitted in the method's units (normalise.py) and the frames, SDFs and
+    intensities returned in the data's.
     With ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``)
     and the refinement continues the chosen rung.
     """
@@ -146,7 +152,12 @@ def reconstruct(
     n_init = max(2, round(trainer.init_frames_per_rotation * float(clock(sino.times[-1]))))
     init_times = sino.times[0] + (np.arange(n_init) + 0.5) * (np.ptp(sino.times) / n_init)
 
-    fbp = fbp_frames(subset(sino, fit_views), grid, init_times, fbp_window_deg, fbp_filter)
+    # From here on, the method's units (normalise.py): FOV side 1, intensities about 1.
+    lengths = field_of_view(grid)
+    grid = lengths.grid(grid)
+    fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
+    units = lengths.with_intensity_of(fbp)
+    fbp, sino = fbp * (lengths.intensity / units.intensity), units.sinogram(sino)
     seg = segment(fbp, n_objects, rng, trainer.kappa, trainer.gmm_share)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
@@ -178,14 +189,18 @@ def reconstruct(
     amplitudes = fit.intensities.detach().cpu()
     sdf = field_frames(fit, clock(frame_times))
     frames = intensity(torch.from_numpy(sdf), amplitudes, trainer.band_px * grid.pixel_size, trainer.mu).numpy()
+    frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
     if capacity.auto:
         described["choice"] = {
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
             "reason": explain(tried, chosen, capacity.tolerance),
         }
-    return NCTResult(frames=frames.astype(np.float32), sdf=sdf, intensities=amplitudes.double().numpy(),
-                     heldout_loss=_heldout(prob, fit), stages=stages, capacity=described)
+    return NCTResult(frames=frames.astype(np.float32), sdf=sdf.astype(np.float32), intensities=amplitudes.numpy(),
+                     heldout_loss=_heldout(prob, fit), stages=stages, capacity=described,
+                     init={"route": seg.route, "background": seg.background * units.intensity,
+                           "levels": [float(a) * units.intensity for a in seg.intensities],
+                           "length_unit": units.length, "intensity_unit": units.intensity})
 
 
 def _stream(rng: np.random.Generator) -> int:

@@ -19,7 +19,7 @@ from omegaconf import DictConfig
 
 from nct import export
 from nct.config import FileConf, NCTConf, validate
-from nct.errors import DivergenceError, InputError
+from nct.errors import DivergenceError, InputError, MethodError
 from nct.io import load_sinogram, save_sinogram
 from nct.metrics import FrameMetrics, frame_metrics, summarise
 from nct.phantoms import build_phantom
@@ -77,7 +77,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
         )
         frames["nct"] = result.frames
         extra = {"heldout_loss": result.heldout_loss, "capacity": result.capacity, "stages": result.stages,
-                 "intensities": [float(a) for a in result.intensities]}
+                 "intensities": [float(a) for a in result.intensities], "init": result.init}
     return frames, extra
 
 
@@ -183,9 +183,11 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) 
     record("running")
     try:
         result = run(conf, cfg, out_dir)
+    except MethodError as err:  # expected: the reason is the whole story
+        record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}")
+        raise
     except BaseException as err:
-        record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}",
-               traceback=traceback.format_exc())
+        record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
         raise
     _write_json(out_dir / "metrics.json", result)
     record("ok")

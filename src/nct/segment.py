@@ -1,14 +1,23 @@
-"""Algorithm 1: find the K objects in FBP frames by a Gaussian mixture over intensities.
+"""Algorithm 1 and a robust fallback: find the K objects' levels and masks in FBP frames.
 
-The mixture has K + kappa + 1 classes fitted on a random share of the frames. The class with the
-most pixels is the background. Objects are brighter than the background in CT: going through
-the brighter classes by peak height times contrast (pixels / spread x (mean - background
-mean)), a class becomes the next object unless its mean lies within SAME_LEVEL standard
-deviations (of the broader class) of an object already found or of the background (one level
-split in two by the mixture). The paper keeps the classes with most pixels; on FBP frames of
-moving objects that picks streak and partial-volume classes. Each pixel then goes to
-the nearest of these levels, so the buffer classes (partial volume, streaks) shape the levels'
-estimate but never claim pixels, and masks are thresholds between levels.
+Algorithm 1 (the paper's): a Gaussian mixture over intensities with K + kappa + 1 classes fitted
+on a random share of the frames. The class with the most pixels is the background. Objects are
+brighter than the background in CT: going through the brighter classes by peak height times
+contrast (pixels / spread x (mean - background mean)), a class becomes the next object unless
+its mean lies within SAME_LEVEL standard deviations (of the broader class) of an object already
+found or of the background (one level split in two by the mixture), or lies below the
+foreground threshold (background ripple or noise; see `foreground_threshold`). The paper keeps
+the classes with most pixels; on FBP frames of moving objects that picks streak and
+partial-volume classes.
+
+Where the mixture cannot separate K levels (a small or fast object seen in few pixels of the
+frames it was fitted on, a faint object beside a bright one, noise), the fallback route splits
+the foreground pixels of every frame (above `foreground_threshold`) into K classes by
+multi-level Otsu and takes each class's median as its level. Only when no pixel stands out of
+the background does segmentation fail, with `NoObjectError`.
+
+Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
+streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
 """
 
 from __future__ import annotations
@@ -16,25 +25,37 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from skimage.filters import threshold_multiotsu
 from sklearn.mixture import GaussianMixture
 
+from nct.errors import NoObjectError
+
 SAME_LEVEL = 3.0
+NOISE_SIGMAS = 4.0  # foreground: this many noise deviations above the background ...
+MIN_CONTRAST = 0.05  # ... and at least this share of the brightest contrast (ripple of noiseless FBP)
+ROUTES = ("auto", "gmm", "otsu")
 
 
 @dataclass(frozen=True)
 class Segmentation:
-    """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level."""
+    """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level;
+    route: "gmm" (Algorithm 1) or "otsu" (the fallback); background: the background level."""
 
     masks: np.ndarray
     intensities: np.ndarray
+    route: str = "gmm"
+    background: float = 0.0
 
 
 def segment(
-    frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int = 3, share: float = 0.02
+    frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int = 3, share: float = 0.02,
+    route: str = "auto",
 ) -> Segmentation:
-    """Segment FBP ``frames`` [F, H, W] into ``n_objects`` masks, objects ordered by peak x contrast.
+    """Segment FBP ``frames`` [F, H, W] into ``n_objects`` masks.
 
-    The mixture is fitted on ``share`` of the frames (at least one), drawn with ``rng``.
+    ``route``: "gmm" (Algorithm 1 only), "otsu" (the fallback only) or "auto" (Algorithm 1, and
+    the fallback where it finds fewer than K levels). The mixture is fitted on ``share`` of the
+    frames (at least one), drawn with ``rng``. Raises `NoObjectError` when nothing stands out.
     """
     if frames.ndim != 3:
         raise ValueError(f"frames must be [F, H, W], got shape {frames.shape}")
@@ -42,6 +63,42 @@ def segment(
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if kappa < 0:
         raise ValueError(f"kappa (buffer classes) must be >= 0, got {kappa}")
+    if route not in ROUTES:
+        raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
+    if not np.isfinite(frames).all():
+        raise NoObjectError("the FBP frames hold NaN or inf: the sinogram cannot be segmented")
+    levels = None
+    if route != "otsu":
+        levels = mixture_levels(frames, n_objects, rng, kappa, share)
+        if levels is None and route == "gmm":
+            raise NoObjectError(f"Algorithm 1 found fewer than n_objects = {n_objects} distinct intensity levels "
+                                "brighter than the background in the FBP frames (init.route=auto falls back to Otsu)")
+    chosen = "gmm" if levels is not None else "otsu"
+    if levels is None:
+        levels = otsu_levels(frames, n_objects)
+    nearest = np.argmin(np.abs(frames[..., None] - levels.astype(np.float32)), axis=-1)
+    masks = np.stack([nearest == k + 1 for k in range(n_objects)], axis=1)
+    return Segmentation(masks=masks, intensities=levels[1:] - levels[0], route=chosen, background=float(levels[0]))
+
+
+def noise_sigma(frames: np.ndarray) -> float:
+    """Robust standard deviation of the pixel noise: from neighbouring pixels' differences
+    (edges are a small share of pixels, so the median ignores them)."""
+    diff = np.diff(frames, axis=-1)
+    return float(1.4826 * np.median(np.abs(diff - np.median(diff))) / np.sqrt(2))
+
+
+def foreground_threshold(frames: np.ndarray, background: float) -> float:
+    """The lowest level an object may have: NOISE_SIGMAS noise deviations above ``background``
+    and MIN_CONTRAST of the brightest contrast (the 99.9th percentile of the frames)."""
+    peak = float(np.percentile(frames, 99.9))
+    return background + max(NOISE_SIGMAS * noise_sigma(frames), MIN_CONTRAST * (peak - background))
+
+
+def mixture_levels(frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int,
+                   share: float) -> np.ndarray | None:
+    """Algorithm 1: background and K object levels [K + 1] ordered by peak x contrast, or None
+    when the mixture does not hold K distinct levels above the foreground threshold."""
     n_fit = max(1, int(round(share * len(frames))))
     chosen = rng.choice(len(frames), size=n_fit, replace=False)
     n_classes = n_objects + kappa + 1
@@ -52,6 +109,7 @@ def segment(
     spread = np.sqrt(gmm.covariances_.reshape(n_classes))
     count = np.bincount(labels.ravel(), minlength=n_classes)
     background = int(np.argmax(count))
+    lowest = foreground_threshold(frames, float(means[background]))
     # A true level is a sharp histogram peak (many pixels, small spread); partial-volume and
     # streak classes are broad. Rank by peak height times contrast.
     score = count / spread * (means - means[background])
@@ -62,14 +120,28 @@ def segment(
     found: list[int] = []
     for c in np.argsort(-score):
         distinct = not any(same(c, o) for o in [background, *found])
-        if means[c] > means[background] and distinct and len(found) < n_objects:
+        if means[c] >= lowest and distinct and len(found) < n_objects:
             found.append(int(c))
-    if len(found) < n_objects:
-        raise ValueError(
-            f"found {len(found)} distinct intensity levels brighter than the background in the FBP frames, "
-            f"need n_objects = {n_objects}"
-        )
-    levels = means[[background, *found]]
-    nearest = np.argmin(np.abs(frames[..., None] - levels.astype(np.float32)), axis=-1)
-    masks = np.stack([nearest == k + 1 for k in range(n_objects)], axis=1)
-    return Segmentation(masks=masks, intensities=levels[1:] - levels[0])
+    return means[[background, *found]] if len(found) == n_objects else None
+
+
+def otsu_levels(frames: np.ndarray, n_objects: int) -> np.ndarray:
+    """The fallback: background (the median pixel) and K object levels [K + 1], brightest last,
+    from a multi-level Otsu split of the foreground pixels into K classes (class medians)."""
+    background = float(np.median(frames))
+    lowest = foreground_threshold(frames, background)
+    fg = frames[frames > lowest].astype(np.float64)
+    if np.unique(fg).size < max(2, n_objects):
+        raise NoObjectError(
+            f"found no object in the FBP frames: {fg.size} pixels stand out of the background level "
+            f"{background:.4g} (threshold {lowest:.4g}), need n_objects = {n_objects} distinct levels; "
+            "is the sinogram empty, or data.n_objects too large?")
+    edges = [lowest, *(threshold_multiotsu(fg, classes=n_objects) if n_objects > 1 else []), np.inf]
+    levels = [background]
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        part = fg[(fg > lo) & (fg <= hi)]
+        if part.size == 0:
+            raise NoObjectError(f"found fewer than n_objects = {n_objects} distinct levels in the FBP frames' "
+                                f"foreground ({fg.size} pixels above {lowest:.4g})")
+        levels.append(float(np.median(part)))
+    return np.asarray(levels)
