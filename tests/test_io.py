@@ -56,6 +56,15 @@ def test_truth_level_defaults_to_half_peak(tmp_path):
         (lambda a: a.update(extra=np.zeros(3)), "'extra'"),
         (lambda a: a.update(truth=np.zeros((2, 4, 4), np.float32)), "'truth_times'"),
         (lambda a: a.update(truth_times=np.zeros(2)), "'truth'"),
+        # implausible content (issue 9 item 7)
+        (lambda a: a.update(angles=np.rad2deg(a["angles"]) * 2), "'angles'"),  # degrees, one rotation
+        (lambda a: a.update(angles=np.zeros(10)), "'angles'"),
+        (lambda a: a.update(angles_unit=np.array("grad")), "'angles_unit'"),
+        (lambda a: a.update(sinogram=np.zeros((10, 6), np.float32)), "'sinogram'"),
+        (lambda a: a.update(sinogram=-a["sinogram"]), "'sinogram'"),
+        (lambda a: a.update(sinogram=a["sinogram"] * np.float32(1e30)), "'sinogram'"),
+        (lambda a: a.update(times=np.full(10, 0.3)), "'times'"),
+        (lambda a: a.update(times=np.array([object()] * 10)), "'times'"),
     ],
 )
 def test_bad_files_name_the_key(tmp_path, change, key):
@@ -73,3 +82,18 @@ def test_not_a_file(tmp_path):
     (tmp_path / "junk.npz").write_text("not a zip")
     with pytest.raises(InputError, match="not a readable .npz"):
         load_sinogram(tmp_path / "junk.npz")
+
+
+def test_degrees_accepted_when_the_file_says_so(tmp_path):
+    a = good_arrays()
+    a.update(angles=np.rad2deg(a["angles"]) * 2, angles_unit=np.array("deg"))
+    np.testing.assert_allclose(load_sinogram(write(tmp_path / "deg.npz", **a)).angles, good_arrays()["angles"] * 2)
+    # a long scan in radians passes once the unit is stated
+    a = good_arrays() | {"angles": np.linspace(0, 40 * np.pi * 2, 10), "angles_unit": np.array("rad")}
+    assert load_sinogram(write(tmp_path / "long.npz", **a)).angles[-1] == pytest.approx(80 * np.pi)
+
+
+def test_noisy_data_dipping_below_zero_is_accepted(tmp_path):
+    a = good_arrays()
+    a["sinogram"] = a["sinogram"] - np.float32(0.3)  # some negatives, mostly positive
+    assert load_sinogram(write(tmp_path / "noisy.npz", **a)).values.min() < 0

@@ -104,3 +104,29 @@ def test_invalid_value_is_recorded_as_failed(tiny_cfg, run_dir):
         run_job(tiny_cfg("phantom.displacement_deg=400"), run_dir)
     status = read(run_dir / "status.json")
     assert status["status"] == "failed" and "phantom.displacement_deg" in status["error"]
+
+
+def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
+    """Without a truth the field of view is the detector's width, in the file's own unit (here mm)."""
+    radon_file(tmp_path / "scan.npz")
+    with np.load(tmp_path / "scan.npz") as f:
+        mm = {"sinogram": f["sinogram"] * np.float32(0.02 * 200), "angles": f["angles"], "times": f["times"],
+              "bin_spacing": f["bin_spacing"] * 200}  # a 200 mm field of view, 0.02 /mm
+    np.savez(tmp_path / "mm.npz", **mm)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", "logger=none",
+                     "export.gif=false"), run_dir)
+    rec = np.load(run_dir / "reconstruction.npz")
+    n_bins = mm["sinogram"].shape[1]
+    assert float(rec["extent"]) == pytest.approx(n_bins * float(mm["bin_spacing"]))
+    assert np.percentile(rec["fbp"], 99) == pytest.approx(0.02, rel=0.15)  # attenuation back in 1/mm
+
+
+def test_method_failure_is_one_line_exit_1_and_recorded(tmp_path):
+    """An expected method failure (here a fit driven to diverge): one line, exit 1, reason in status.json."""
+    proc = subprocess.run([sys.executable, "-m", "nct.cli", "debug=tiny", "trainer.lr=1000", "trainer.warmup_steps=0",
+                           "logger=none", f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert proc.stderr.strip().startswith("nct: error: stage") and "\n" not in proc.stderr.strip()
+    status = read(tmp_path / "run" / "status.json")
+    assert status["status"] == "diverged" and status["error"].startswith("DivergenceError")
+    assert "traceback" not in status

@@ -37,15 +37,20 @@ class SimulateConf:
 
 @dataclass
 class FileConf:
-    """A sinogram file in the documented ``.npz`` format; ``n_objects``: K, the objects to fit."""
+    """A sinogram file in the documented ``.npz`` format; ``n_objects``: K, the objects to fit.
+    ``extent``: side of the reconstructed field of view in the file's length unit when the file
+    has no truth (null: the detector's width, n_bins x bin_spacing); with a truth, its grid."""
 
     name: str = "file"
     path: str = MISSING
     n_objects: int = 1
+    extent: Optional[float] = None
 
     def __post_init__(self) -> None:
         if self.n_objects < 1:
             raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
+        if self.extent is not None and not self.extent > 0:
+            raise ValueError(f"data.extent must be > 0 (or null for the detector's width), got {self.extent}")
 
 
 @dataclass

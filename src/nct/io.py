@@ -1,7 +1,8 @@
 """The sinogram file: one ``.npz`` written by every run and read by ``data=file``.
 
-Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians, ``times``
-[n_views] seconds (non-decreasing), ``bin_spacing`` scalar; optional ``source_distance``
+Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians (degrees with
+``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing), ``bin_spacing`` scalar;
+optional ``source_distance``
 (fan beam, not yet supported), and for scoring ``truth`` [n_frames, H, W] with
 ``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``).
 """
@@ -17,7 +18,10 @@ from nct.errors import InputError
 from nct.sinogram import Sinogram, Truth
 
 REQUIRED = ("sinogram", "angles", "times", "bin_spacing")
-OPTIONAL = ("source_distance", "truth", "truth_times", "truth_extent", "truth_level")
+OPTIONAL = ("source_distance", "truth", "truth_times", "truth_extent", "truth_level", "angles_unit")
+ANGLES_UNITS = ("rad", "deg")
+MAX_ROTATIONS = 16  # angles in radians spanning more turns than this look like degrees
+LARGEST = 1e9  # |line integral| beyond this is no attenuation (a scaling or type error)
 
 
 def save_sinogram(path: str | Path, sino: Sinogram) -> None:
@@ -42,8 +46,16 @@ def _fail(path: Path, key: str, expected: str, got: str) -> InputError:
     return InputError(f"{path}: key '{key}': expected {expected}, got {got}")
 
 
+def _read(data, path: Path, key: str) -> np.ndarray:
+    """``data[key]``; an object (pickled) array is refused, naming the key."""
+    try:
+        return np.asarray(data[key])
+    except ValueError:
+        raise _fail(path, key, "a numeric array", "an object array (saved with pickling)") from None
+
+
 def _array(data, path: Path, key: str, ndim: int, length: int | None = None) -> np.ndarray:
-    a = np.asarray(data[key])
+    a = _read(data, path, key)
     if not np.issubdtype(a.dtype, np.floating) and not np.issubdtype(a.dtype, np.integer):
         raise _fail(path, key, "a real-valued array", f"dtype {a.dtype}")
     if a.ndim != ndim:
@@ -56,7 +68,7 @@ def _array(data, path: Path, key: str, ndim: int, length: int | None = None) -> 
 
 
 def _scalar(data, path: Path, key: str, positive: bool = True) -> float:
-    a = np.asarray(data[key])
+    a = _read(data, path, key)
     if a.size != 1 or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
         raise _fail(path, key, "a real scalar", f"shape {a.shape} dtype {a.dtype}")
     v = float(a.reshape(()))
@@ -87,16 +99,56 @@ def load_sinogram(path: str | Path) -> Sinogram:
         n_views = values.shape[0]
         if n_views < 2 or values.shape[1] < 2:
             raise _fail(path, "sinogram", "shape [n_views >= 2, n_bins >= 2]", f"shape {values.shape}")
-        angles = _array(data, path, "angles", 1, n_views).astype(np.float64)
+        _check_values(values, path)
+        angles = _angles(data, path, n_views)
         times = _array(data, path, "times", 1, n_views).astype(np.float64)
         if np.any(np.diff(times) < 0):
             raise _fail(path, "times", "non-decreasing times", "times that go backwards")
+        if np.ptp(times) == 0:
+            raise _fail(path, "times", "times that advance over the scan", f"every view at the same time {times[0]:g}")
         bin_spacing = _scalar(data, path, "bin_spacing")
         source_distance = _scalar(data, path, "source_distance") if "source_distance" in data.files else None
         if source_distance is not None:
             raise _fail(path, "source_distance", "absent (fan beam is not supported yet)", repr(source_distance))
         truth = _load_truth(data, path)
     return Sinogram(values, angles, times, bin_spacing, source_distance, truth)
+
+
+def _check_values(values: np.ndarray, path: Path) -> None:
+    """Line integrals of attenuation: not all zero, not mostly negative, not absurdly large."""
+    if not np.any(values):
+        raise _fail(path, "sinogram", "some non-zero line integrals", "all zeros (no object to reconstruct)")
+    positive, negative = float(values[values > 0].sum()), float(-values[values < 0].sum())
+    if negative > positive:
+        raise _fail(path, "sinogram", "line integrals >= 0 (attenuation; noise may dip below 0)",
+                    f"mostly negative values (negatives sum to {negative:.3g}, positives to {positive:.3g}): "
+                    "a negated sinogram, or counts not turned into -log(I/I0)?")
+    largest = float(np.abs(values).max())
+    if largest > LARGEST:
+        raise _fail(path, "sinogram", f"line integrals below {LARGEST:g} in magnitude",
+                    f"values up to {largest:.3g} (a scaling error?)")
+
+
+def _angles(data, path: Path, n_views: int) -> np.ndarray:
+    """View angles in radians; degrees only when ``angles_unit`` says so. Angles that span more
+    than MAX_ROTATIONS turns read as radians look like degrees and are refused unless stated."""
+    angles = _array(data, path, "angles", 1, n_views).astype(np.float64)
+    unit = None
+    if "angles_unit" in data.files:
+        raw = _read(data, path, "angles_unit")
+        unit = str(raw.reshape(-1)[0]) if raw.size == 1 else repr(raw.tolist())
+        if unit not in ANGLES_UNITS:
+            raise _fail(path, "angles_unit", "'rad' or 'deg'", repr(unit))
+    if unit == "deg":
+        angles = np.deg2rad(angles)
+    span = float(np.ptp(angles))
+    if span == 0:
+        raise _fail(path, "angles", "angles that advance (the gantry turns)", f"every view at angle {angles[0]:g}")
+    if unit is None and span > 2 * np.pi * MAX_ROTATIONS:
+        raise _fail(path, "angles", "radians",
+                    f"a span of {span:.4g} ({span / (2 * np.pi):.0f} turns if radians): degrees? convert them "
+                    "or add angles_unit='deg' to the file (angles_unit='rad' for a scan this long)")
+    return angles
 
 
 def _load_truth(data, path: Path) -> Truth | None:

@@ -43,13 +43,15 @@ class Acquisition:
 
 
 def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
-    """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has one)."""
+    """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has
+    one, else ``image.size`` pixels over ``data.extent``)."""
     if isinstance(conf.data, FileConf):
         sino = load_sinogram(conf.data.path)
         if sino.truth is not None:
             grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
             return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
-        grid = conf.image.build()
+        extent = conf.data.extent if conf.data.extent is not None else sino.n_bins * sino.bin_spacing
+        grid = ImageGrid(conf.image.size, extent)
         span = float(np.ptp(sino.angles)) / (2 * math.pi)
         n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))
         edges = np.linspace(sino.times[0], sino.times[-1], n + 1)

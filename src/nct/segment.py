@@ -131,7 +131,7 @@ def otsu_levels(frames: np.ndarray, n_objects: int) -> np.ndarray:
     background = float(np.median(frames))
     lowest = foreground_threshold(frames, background)
     fg = frames[frames > lowest].astype(np.float64)
-    if np.unique(fg).size < max(2, n_objects):
+    if fg.size < len(frames) or np.unique(fg).size < max(2, n_objects):  # under a pixel a frame: noise
         raise NoObjectError(
             f"found no object in the FBP frames: {fg.size} pixels stand out of the background level "
             f"{background:.4g} (threshold {lowest:.4g}), need n_objects = {n_objects} distinct levels; "
