@@ -120,6 +120,15 @@ def _log_error(path: Path) -> str | None:
     return " / ".join(lines[-2:]) or None
 
 
+def companion(record: Record, method: str) -> Record:
+    """The record of ``method`` as scored inside ``record``'s run (a NeuralCT run scores FBP too): its
+    status and scores from the same folder, the process's times left NaN (they are the other method's)."""
+    job = Job(record.job.labels, method, record.job.seed, record.job.overrides, record.job.run_dir)
+    fields = read_run(record.job.run_dir, method)
+    fields.pop("run_time_s", None)
+    return Record(job=job, threads=record.threads, **fields)
+
+
 def run_one(job: Job, threads: int = 1, timeout_s: float | None = None) -> Record:
     """Run ``job`` in a fresh process with ``threads`` BLAS/OpenMP threads; kill it after ``timeout_s``."""
     job.run_dir.mkdir(parents=True, exist_ok=True)
@@ -206,14 +215,16 @@ def positive_int(text: str) -> int:
     return value
 
 
-def benchmark_parser(name: str, description: str, quick: str, seeds: str) -> argparse.ArgumentParser:
-    """The options both benchmarks share: --out, --quick, --seeds, --jobs, --threads, --resume, --timeout."""
+def benchmark_parser(name: str, description: str, quick: str, seeds: str | None) -> argparse.ArgumentParser:
+    """The options the benchmarks share: --out, --quick, --seeds (unless ``seeds`` is None: a benchmark
+    that does not repeat runs over seeds), --jobs, --threads, --resume, --timeout."""
     parser = argparse.ArgumentParser(description=description)
     stamp = time.strftime("%Y%m%d-%H%M%S")
     parser.add_argument("--out", type=Path, default=Path(f"outputs/benchmarks/{name}-{stamp}"),
                         help="output folder (default outputs/benchmarks/<name>-<date and time>)")
     parser.add_argument("--quick", action="store_true", help=quick)
-    parser.add_argument("--seeds", type=int, nargs="+", help=seeds)
+    if seeds is not None:
+        parser.add_argument("--seeds", type=int, nargs="+", help=seeds)
     parser.add_argument("--jobs", type=positive_int, default=1, help="runs at a time (default 1)")
     parser.add_argument("--threads", type=positive_int, default=1, help="OpenMP threads per run (default 1)")
     parser.add_argument("--resume", action="store_true",

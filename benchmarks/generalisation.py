@@ -1,0 +1,283 @@
+"""Generalisation (issue 9, item 6): nct on sinogram files written by independent code.
+
+Draws ``--scenes`` random scenes from ``--seed`` (benchmarks/scenes.py: 1-3 moving or static
+ellipses, apart or nested, in unit field of view, cm or mm, random scanners, Poisson noise or
+none), simulates each analytically, writes it as a sinogram file under ``--out/scenes`` and
+reconstructs it with ``nct data=file data.path=<file> data.n_objects=K`` (the default method,
+nothing tuned per scene; ``--override`` adds the same overrides to every run). One NeuralCT run per
+scene scores both methods (its metrics.json holds FBP's summary too); a scene whose NeuralCT run
+fails gets an FBP-only run so that FBP is still scored. A failed, diverged, timed-out or NaN
+NeuralCT run counts as Dice 0, never dropped.
+
+Acceptance (issue 9): (a) no crash; (b) NCT Dice >= FBP Dice - 0.01 on every scene; (c) NCT Dice
+>= 0.90 on >= 90 % of the moving scenes whose smallest semi-axis is >= 4 % of the field of view.
+
+Writes scenes.csv (one row per scene: drawn parameters, categories, both methods' scores),
+categories.csv, nct_vs_fbp.png and generalisation.md.
+
+Run: python benchmarks/generalisation.py [--quick] [--scenes N] [--seed S] [--size N] [--jobs 2]
+     [--override KEY=VALUE ...] [--out DIR] [--resume] [--timeout S]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scenes import Scene, draw_scenes, write_scene  # noqa: E402
+
+from nct.benchmarking import (  # noqa: E402
+    QUIET, Job, Record, benchmark_parser, companion, markdown_table, positive_int, run_jobs, write_csv,
+)
+
+MARGIN = 0.01  # (b): NCT may trail FBP by at most this much Dice
+TARGET_DICE, TARGET_SHARE, MIN_RADIUS_PCT = 0.90, 0.90, 4.0  # (c)
+CATEGORY_KEYS = ("motion", "speed", "size", "noise", "layout", "units")
+QUICK_SCENES, QUICK_SIZE, QUICK_FRAMES = 8, 64, 8
+FULL_SCENES, FULL_SIZE, FULL_FRAMES = 100, 128, 12
+NCT_SEED = 0  # the method's seed, the same for every scene: scenes vary, the method does not
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One scene's result: its NeuralCT record and FBP's (from the same run, or its own when the
+    NeuralCT run failed)."""
+
+    scene: Scene
+    nct: Record
+    fbp: Record
+
+    @property
+    def nct_dice(self) -> float:
+        """NeuralCT's median Dice, a failure scored 0."""
+        return 0.0 if self.nct.failed else self.nct.dice
+
+    @property
+    def fbp_dice(self) -> float:
+        return 0.0 if self.fbp.failed else self.fbp.dice
+
+    @property
+    def below_fbp(self) -> bool:
+        """Criterion (b) broken: NeuralCT more than ``MARGIN`` below FBP."""
+        return self.nct_dice < self.fbp_dice - MARGIN
+
+    @property
+    def in_target(self) -> bool:
+        """Counted by criterion (c): moving, every object at least ``MIN_RADIUS_PCT`` % of the FOV."""
+        return self.scene.moving and self.scene.smallest_radius_pct() >= MIN_RADIUS_PCT
+
+    def row(self) -> dict:
+        """The scene's parameters, categories and both methods' scores, flat."""
+        return {**self.scene.parameters(), **self.scene.categories(),
+                "nct_status": self.nct.status, "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
+                "fbp_status": self.fbp.status, "fbp_dice": self.fbp.dice, "fbp_mse": self.fbp.mse,
+                "nct_minus_fbp": self.nct_dice - self.fbp_dice, "below_fbp": self.below_fbp,
+                "wall_time_s": self.nct.wall_time_s, "run_time_s": self.nct.run_time_s,
+                "fbp_from": "nct run" if self.fbp.job.run_dir == self.nct.job.run_dir else "own run",
+                "error": first_line(self.nct.error), "run_dir": str(self.nct.job.run_dir)}
+
+
+def first_line(text: str | None) -> str:
+    """The first line of an error message ('' for none)."""
+    return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
+
+
+def scene_overrides(scene: Scene, path: Path, extra: Sequence[str]) -> tuple[str, ...]:
+    """The ``nct`` overrides that reconstruct ``scene``'s file with K = its number of objects."""
+    return ("data=file", f"data.path={path.resolve()}", f"data.n_objects={len(scene.objects)}", *QUIET, *extra)
+
+
+def plan(out: Path, scenes: Sequence[Scene], files: Sequence[Path], extra: Sequence[str]) -> list[Job]:
+    """One NeuralCT job per scene, in ``out/runs/<scene>/nct``."""
+    return [Job({"scene": s.name}, "nct", NCT_SEED, scene_overrides(s, f, extra), out / "runs" / s.name / "nct")
+            for s, f in zip(scenes, files)]
+
+
+def fbp_fallbacks(records: Sequence[Record]) -> list[Job]:
+    """FBP-only jobs for the scenes whose NeuralCT run left no FBP score (the run failed)."""
+    return [Job(r.job.labels, "fbp", r.job.seed, r.job.overrides, r.job.run_dir.parent / "fbp")
+            for r in records if companion(r, "fbp").failed]
+
+
+def outcomes(scenes: Sequence[Scene], nct: Sequence[Record], fallback: Sequence[Record]) -> list[Outcome]:
+    """Pair every scene with its NeuralCT record and its FBP record (own run if there is one)."""
+    own = {r.job.labels["scene"]: r for r in fallback}
+    return [Outcome(s, r, own.get(s.name) or companion(r, "fbp")) for s, r in zip(scenes, nct)]
+
+
+def median(values: Sequence[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.median(finite)) if finite else math.nan
+
+
+def category_rows(results: Sequence[Outcome]) -> list[dict]:
+    """Per category value (and 'all'): scenes, median Dice of both methods (NeuralCT failures as 0),
+    median MSE (successful runs), crashes, scenes below FBP - margin, median wall time."""
+    groups = [("all", "all", list(results))]
+    for key in CATEGORY_KEYS:
+        values = dict.fromkeys(o.scene.categories()[key] for o in results)
+        groups += [(key, v, [o for o in results if o.scene.categories()[key] == v]) for v in values]
+    return [{"category": key, "value": value, "scenes": len(mine),
+             "nct_dice": median([o.nct_dice for o in mine]), "fbp_dice": median([o.fbp_dice for o in mine]),
+             "nct_mse": median([o.nct.mse for o in mine if not o.nct.failed]),
+             "fbp_mse": median([o.fbp.mse for o in mine if not o.fbp.failed]),
+             "nct_failed": sum(o.nct.failed for o in mine), "fbp_failed": sum(o.fbp.failed for o in mine),
+             "below_fbp": sum(o.below_fbp for o in mine), "wall_time_s": median([o.nct.wall_time_s for o in mine])}
+            for key, value, mine in groups]
+
+
+@dataclass(frozen=True)
+class Acceptance:
+    """The issue's three checks: crashes, scenes where NCT < FBP - margin, and the share of target
+    scenes (moving, radius >= 4 %) with NCT Dice >= 0.90 (NaN when there are none)."""
+
+    crashes: list[Outcome]
+    below_fbp: list[Outcome]
+    target_scenes: int
+    target_good: int
+
+    @property
+    def share(self) -> float:
+        return self.target_good / self.target_scenes if self.target_scenes else math.nan
+
+    def lines(self) -> list[str]:
+        """One line per check, with PASS / FAIL."""
+        def verdict(ok: bool) -> str:
+            return "PASS" if ok else "FAIL"
+
+        crashed = ", ".join(f"{o.scene.name} ({o.nct.status}: {first_line(o.nct.error)})" for o in self.crashes)
+        below = ", ".join(f"{o.scene.name} ({o.nct_dice:.3f} vs {o.fbp_dice:.3f})" for o in self.below_fbp)
+        return [f"(a) no crash: {verdict(not self.crashes)}, {len(self.crashes)} crashed"
+                + (f": {crashed}" if crashed else ""),
+                f"(b) NCT >= FBP - {MARGIN} Dice on every scene: {verdict(not self.below_fbp)}, "
+                f"{len(self.below_fbp)} below" + (f": {below}" if below else ""),
+                f"(c) NCT >= {TARGET_DICE} on >= {TARGET_SHARE:.0%} of the moving scenes with radius >= "
+                f"{MIN_RADIUS_PCT:g} %: {verdict(self.share >= TARGET_SHARE)}, {self.target_good}/{self.target_scenes}"
+                f" ({self.share:.0%})"]
+
+
+def acceptance(results: Sequence[Outcome]) -> Acceptance:
+    """Evaluate the issue's checks on ``results``."""
+    target = [o for o in results if o.in_target]
+    return Acceptance(crashes=[o for o in results if o.nct.failed or o.fbp.failed],
+                      below_fbp=[o for o in results if o.below_fbp], target_scenes=len(target),
+                      target_good=sum(o.nct_dice >= TARGET_DICE for o in target))
+
+
+def colour_class(scene: Scene) -> str:
+    """The chart's colour: static, moving (< 150 deg/rot) or fast."""
+    return {"none": "static", "slow": "moving", "fast": "fast (>= 150 deg/rot)"}[scene.categories()["speed"]]
+
+
+def plot(results: Sequence[Outcome], path: Path) -> Path:
+    """NCT Dice against FBP Dice per scene: colour by motion (static / moving / fast), hollow for small
+    objects, crosses for failed NeuralCT runs (at 0); the diagonal and y = x - margin."""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    colours = {"static": "C0", "moving": "C1", "fast (>= 150 deg/rot)": "C3"}
+    for label, colour in colours.items():
+        mine = [o for o in results if colour_class(o.scene) == label]
+        for small in (False, True):
+            pts = [o for o in mine if (o.scene.categories()["size"] == "small") == small and not o.nct.failed]
+            if not pts:
+                continue
+            name = f"{label}{', small' if small else ''} ({len(pts)})"
+            ax.scatter([o.fbp_dice for o in pts], [o.nct_dice for o in pts], s=28, edgecolors=colour,
+                       facecolors="none" if small else colour, label=name)
+        failed = [o for o in mine if o.nct.failed]
+        if failed:
+            ax.scatter([o.fbp_dice for o in failed], [0.0] * len(failed), marker="x", color=colour,
+                       label=f"{label}: NCT failed ({len(failed)})")
+    lo = min([0.5] + [min(o.fbp_dice, o.nct_dice) for o in results])
+    ax.plot([lo, 1], [lo, 1], color="grey", lw=1, label="y = x")
+    ax.plot([lo, 1], [lo - MARGIN, 1 - MARGIN], color="grey", lw=1, ls="--", label=f"y = x - {MARGIN}")
+    ax.set(xlabel="FBP median Dice", ylabel="NCT median Dice", xlim=(lo - 0.02, 1.01), ylim=(lo - 0.02, 1.01),
+           title="NCT against FBP per scene")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Acceptance, command: str,
+           elapsed_s: float) -> str:
+    """The markdown note: command, checks, the category table, then one row per scene."""
+    per_category = markdown_table(
+        ["category", "value", "scenes", "NCT Dice", "FBP Dice", "NCT MSE", "FBP MSE", "NCT failed", "FBP failed",
+         "NCT < FBP - 0.01", "wall s"],
+        [[c["category"], c["value"], c["scenes"], c["nct_dice"], c["fbp_dice"], c["nct_mse"], c["fbp_mse"],
+          c["nct_failed"], c["fbp_failed"], c["below_fbp"], c["wall_time_s"]] for c in categories])
+    per_scene = markdown_table(
+        ["scene", "units", "K", "layout", "motions", "deg/rot", "min radius %", "views/rot", "rot", "I0",
+         "FBP Dice", "NCT Dice", "FBP MSE", "NCT MSE", "NCT status", "wall s"],
+        [[o.scene.name, o.scene.units, len(o.scene.objects), o.scene.layout,
+          " ".join(m.motion.kind for m in o.scene.objects),
+          o.scene.max_deg_per_rotation, o.scene.smallest_radius_pct(), o.scene.acquisition.views_per_rotation,
+          o.scene.acquisition.rotations, f"{o.scene.noise_i0:.2g}" if o.scene.noise_i0 else "none", o.fbp_dice,
+          o.nct_dice, o.fbp.mse, o.nct.mse,
+          o.nct.status if not o.nct.failed else f"{o.nct.status}: {first_line(o.nct.error)}",
+          o.nct.wall_time_s] for o in results])
+    return "\n".join(["# Generalisation", "", f"Command: `{command}` (this call: {elapsed_s / 60:.1f} min).", "",
+                      "Scenes drawn and simulated by `benchmarks/scenes.py` (independent of nct), reconstructed by "
+                      "`nct data=file` with the default method; a failed NeuralCT run counts as Dice 0. Dice and "
+                      "MSE: each run's median over frames; per category: the median over scenes.", "",
+                      "## Acceptance", "", *[f"- {line}" for line in checks.lines()], "",
+                      "## Per category", "", per_category, "", "![NCT against FBP](nct_vs_fbp.png)", "",
+                      "## Per scene", "", per_scene, ""])
+
+
+def parse(argv: Sequence[str] | None = None):
+    """Command-line options: the harness's shared ones plus the scene sampler's and ``--override``."""
+    parser = benchmark_parser("generalisation", __doc__.split("\n\n")[0],
+                              f"{QUICK_SCENES} scenes at {QUICK_SIZE} pixels, {QUICK_FRAMES} frames per rotation", None)
+    parser.add_argument("--scenes", type=positive_int, help=f"scenes to draw (default {FULL_SCENES}; "
+                        f"--quick {QUICK_SCENES}); the first N of the seed's sequence")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the scene sampler (default 0)")
+    parser.add_argument("--size", type=positive_int, help=f"truth grid and detector bins (default {FULL_SIZE}; "
+                        f"--quick {QUICK_SIZE})")
+    parser.add_argument("--frames", type=positive_int, help=f"truth frames per rotation (default {FULL_FRAMES}; "
+                        f"--quick {QUICK_FRAMES})")
+    parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                        help="an nct override added to every run (repeatable), e.g. a step count")
+    args = parser.parse_args(argv)
+    args.scenes = args.scenes or (QUICK_SCENES if args.quick else FULL_SCENES)
+    args.size = args.size or (QUICK_SIZE if args.quick else FULL_SIZE)
+    args.frames = args.frames or (QUICK_FRAMES if args.quick else FULL_FRAMES)
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = parse(argv)
+    start = time.perf_counter()
+    scenes = draw_scenes(args.seed, args.scenes)
+    files = [write_scene(s, args.out / "scenes" / f"{s.name}.npz", args.size, args.frames, args.seed) for s in scenes]
+    print(f"{len(scenes)} scenes written to {args.out / 'scenes'}")
+    nct = run_jobs(plan(args.out, scenes, files, args.override), args.jobs, args.resume, args.timeout, args.threads)
+    fallback = run_jobs(fbp_fallbacks(nct), args.jobs, args.resume, args.timeout, args.threads)
+    results = outcomes(scenes, nct, fallback)
+    categories = category_rows(results)
+    checks = acceptance(results)
+    write_csv([o.row() for o in results], args.out / "scenes.csv")
+    write_csv(categories, args.out / "categories.csv")
+    plot(results, args.out / "nct_vs_fbp.png")
+    command = "python " + " ".join([Path(sys.argv[0]).as_posix(), *(argv if argv is not None else sys.argv[1:])])
+    (args.out / "generalisation.md").write_text(report(results, categories, checks, command,
+                                                       time.perf_counter() - start))
+    print("\n".join(checks.lines()))
+    print(f"wrote {args.out / 'generalisation.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,418 @@
+"""Random moving-ellipse scenes, simulated analytically by code of their own (not nct's).
+
+The generalisation benchmark (issue 9, item 6) tests ``nct data=file`` on sinogram files written
+by independent code, as a user's would be. This module draws scenes from a seed, computes their
+exact line integrals (closed-form ellipse chords, each view at its own time, a few sub-rays per
+detector bin), adds Poisson noise, rasterises supersampled truth frames and writes the documented
+``.npz`` format. It imports nothing from ``nct``.
+
+Everything is drawn and simulated in a unit field of view (side 1, centred at the origin); a scene
+in cm or mm is the same scene scaled: lengths × extent, line integrals (intensity × length) ×
+extent, intensities (per unit length) unchanged as numbers.
+
+Motion of an object, with its speed ``deg_per_rotation`` D (a phase that advances D degrees per
+gantry rotation):
+- static: D = 0;
+- orbit: the centre circles an orbit centre at radius ``amplitude``; D is the arc per rotation
+  (the paper's measure);
+- translation: the centre moves back and forth, ``amplitude`` · sin(phase) along a fixed direction:
+  the shadow on a line of an orbit of radius ``amplitude`` at D degrees per rotation;
+- rotation: the ellipse turns about its own centre by D degrees per rotation (its axes differ by
+  at least 25 %, so the turn is visible);
+- beat: both semi-axes scale by 1 + ``amplitude`` · sin(phase); D = 360 is one beat per rotation
+  (the paper's heart).
+A nested object rides on its container: its centre is the container's centre plus its own offset
+and motion.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+UNITS: dict[str, tuple[float, float]] = {"unit": (1.0, 1.0), "cm": (20.0, 40.0), "mm": (200.0, 400.0)}
+MOTIONS = ("orbit", "translation", "rotation", "beat")
+RADIUS_RANGE = (0.04, 0.30)  # semi-axes, fraction of the field of view's side, at every time
+INTENSITY_RANGE = (0.2, 2.0)
+MAX_DEG_PER_ROTATION = 200.0
+MIN_DEG_PER_ROTATION = 5.0  # a moving object moves visibly
+AMPLITUDE_RANGE = {"orbit": (0.05, 0.30), "translation": (0.03, 0.20), "beat": (0.1, 0.3)}
+VIEWS_RANGE = (90, 720)
+ROTATIONS_RANGE = (1, 4)
+ROTATION_TIME_RANGE = (0.2, 0.5)
+I0_RANGE = (1e4, 1e6)  # log-uniform, for the noisy scenes
+P_STATIC_SCENE, P_NOISELESS, P_NESTED = 0.2, 1 / 3, 0.5
+FOV_RADIUS = 0.45  # objects stay inside this circle (unit FOV): the detector sees them at every angle
+GAP = 0.02  # clearance between objects apart, and between a nested object and its container's edge
+MU_PER_INTENSITY_CM, FOV_SIDE_CM = 0.2, 25.0  # noise scale: intensity 1 ~ 0.2 /cm on a 25 cm FOV
+SUPERSAMPLE, SUB_RAYS = 4, 4
+CHECK_SAMPLES = 256  # times at which the layout constraints are checked
+MAX_TRIES = 2000
+SMALL_PCT = 6.0  # 'small' scenes: some semi-axis below this % of the FOV's side
+
+
+@dataclass(frozen=True)
+class Motion:
+    """How an object moves (module docstring): ``kind`` static | orbit | translation | rotation | beat;
+    ``deg_per_rotation`` D; ``amplitude``: orbit radius or translation half-range (unit FOV), or the
+    beat's relative scale; ``direction``: translation direction (rad) or orbit sense (+1/-1);
+    ``phase``: phase at the start of the acquisition (rad)."""
+
+    kind: str = "static"
+    deg_per_rotation: float = 0.0
+    amplitude: float = 0.0
+    direction: float = 1.0
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("static", *MOTIONS):
+            raise ValueError(f"Motion.kind must be static or one of {MOTIONS}, got {self.kind!r}")
+
+
+@dataclass(frozen=True)
+class Ellipse:
+    """One object: ``centre`` (unit FOV; an orbit's centre, relative to the container when nested),
+    semi-axes ``a`` along ``angle`` (rad) and ``b`` across it, ``intensity`` (attenuation per unit
+    length), ``motion``, ``parent``: index of its container (None: not nested)."""
+
+    centre: tuple[float, float]
+    a: float
+    b: float
+    angle: float
+    intensity: float
+    motion: Motion = Motion()
+    parent: int | None = None
+
+
+@dataclass(frozen=True)
+class Acquisition:
+    """Parallel-beam scan: views per rotation, whole rotations, seconds per rotation, sense (+1 angles
+    increase, -1 decrease), start angle (rad), time of the first view (s), detector width as a
+    multiple of the field of view's side (>= 1)."""
+
+    views_per_rotation: int
+    rotations: int
+    rotation_time: float
+    direction: int
+    start_angle: float
+    time_offset: float
+    detector_width: float = 1.0
+
+    @property
+    def n_views(self) -> int:
+        return self.views_per_rotation * self.rotations
+
+    @property
+    def duration(self) -> float:
+        return self.rotations * self.rotation_time
+
+    def times(self) -> np.ndarray:
+        """Acquisition time of every view, s: [V]."""
+        return self.time_offset + np.arange(self.n_views) * self.rotation_time / self.views_per_rotation
+
+    def angles(self) -> np.ndarray:
+        """Gantry angle of every view, rad: [V] (not wrapped: rotations accumulate)."""
+        return self.start_angle + self.direction * 2 * np.pi * np.arange(self.n_views) / self.views_per_rotation
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A drawn scene: ``index`` in its benchmark, ``units`` unit | cm | mm, ``extent`` (the field of
+    view's side in those units), ``objects``, ``layout`` single | apart | nested, the scan, and the
+    Poisson ``noise_i0`` (None: noiseless)."""
+
+    index: int
+    units: str
+    extent: float
+    objects: tuple[Ellipse, ...]
+    layout: str
+    acquisition: Acquisition
+    noise_i0: float | None
+
+    @property
+    def name(self) -> str:
+        return f"scene{self.index:03d}"
+
+    @property
+    def moving(self) -> bool:
+        return any(o.motion.kind != "static" for o in self.objects)
+
+    @property
+    def max_deg_per_rotation(self) -> float:
+        return max(o.motion.deg_per_rotation for o in self.objects)
+
+    def smallest_radius_pct(self) -> float:
+        """The smallest semi-axis of any object at any time, % of the field of view's side."""
+        return 100 * min(float(Pose.of(self, i, _check_times(self)).b.min()) for i in range(len(self.objects)))
+
+    def categories(self) -> dict[str, str]:
+        """Labels to group results by: motion, size (small: a semi-axis < ``SMALL_PCT`` % of the FOV at some time),
+        noise, layout, speed (fast: >= 150 deg/rot), units."""
+        return {"motion": "moving" if self.moving else "static",
+                "size": "small" if self.smallest_radius_pct() < SMALL_PCT else "normal",
+                "noise": "noisy" if self.noise_i0 is not None else "clean",
+                "layout": self.layout,
+                "speed": "fast" if self.max_deg_per_rotation >= 150 else "slow" if self.moving else "none",
+                "units": self.units}
+
+    def parameters(self) -> dict:
+        """Every drawn parameter as a flat row (radii as % of the FOV's side)."""
+        acq = self.acquisition
+        return {"scene": self.name, "units": self.units, "extent": self.extent, "n_objects": len(self.objects),
+                "layout": self.layout, "radii_pct": " ".join(f"{100 * o.a:.1f}x{100 * o.b:.1f}" for o in self.objects),
+                "smallest_radius_pct": self.smallest_radius_pct(),
+                "intensities": " ".join(f"{o.intensity:.2f}" for o in self.objects),
+                "motions": " ".join(o.motion.kind for o in self.objects),
+                "deg_per_rotation": " ".join(f"{o.motion.deg_per_rotation:.0f}" for o in self.objects),
+                "max_deg_per_rotation": self.max_deg_per_rotation, "views_per_rotation": acq.views_per_rotation,
+                "rotations": acq.rotations, "rotation_time_s": acq.rotation_time,
+                "direction": "ccw" if acq.direction > 0 else "cw", "start_angle_deg": math.degrees(acq.start_angle),
+                "time_offset_s": acq.time_offset, "noise_i0": self.noise_i0 if self.noise_i0 is not None else ""}
+
+
+@dataclass(frozen=True)
+class Pose:
+    """An object's centre, semi-axes and orientation at a set of times, each [T] (unit FOV)."""
+
+    cx: np.ndarray
+    cy: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    angle: np.ndarray
+
+    @staticmethod
+    def of(scene: Scene, i: int, times: np.ndarray) -> "Pose":
+        """Pose of ``scene.objects[i]`` at absolute ``times`` [T] s (a nested object rides on its parent)."""
+        obj, acq = scene.objects[i], scene.acquisition
+        m = obj.motion
+        elapsed = (np.asarray(times, float) - acq.time_offset) / acq.rotation_time  # in rotations
+        phase = m.phase + np.radians(m.deg_per_rotation) * elapsed
+        ones = np.ones_like(phase)
+        cx, cy, scale, angle = obj.centre[0] * ones, obj.centre[1] * ones, ones, obj.angle * ones
+        if m.kind == "orbit":
+            cx, cy = cx + m.amplitude * np.cos(m.direction * phase), cy + m.amplitude * np.sin(m.direction * phase)
+        elif m.kind == "translation":
+            shift = m.amplitude * np.sin(phase)
+            cx, cy = cx + shift * np.cos(m.direction), cy + shift * np.sin(m.direction)
+        elif m.kind == "rotation":
+            angle = angle + phase - m.phase
+        elif m.kind == "beat":
+            scale = 1 + m.amplitude * np.sin(phase)
+        if obj.parent is not None:
+            host = Pose.of(scene, obj.parent, times)
+            cx, cy = cx + host.cx, cy + host.cy
+        return Pose(cx, cy, obj.a * scale, obj.b * scale, angle)
+
+
+def _check_times(scene: Scene) -> np.ndarray:
+    acq = scene.acquisition
+    return acq.time_offset + np.linspace(0, acq.duration, CHECK_SAMPLES)
+
+
+def layout_ok(scene: Scene) -> bool:
+    """Whether, at every checked time, every object lies inside the FOV circle, has semi-axes within
+    ``RADIUS_RANGE``, nested objects lie inside their container (bounding circles) and all others
+    are apart from each other by ``GAP``."""
+    times = _check_times(scene)
+    poses = [Pose.of(scene, i, times) for i in range(len(scene.objects))]
+    for p in poses:
+        outside = np.any(np.hypot(p.cx, p.cy) + p.a > FOV_RADIUS)
+        if outside or p.b.min() < RADIUS_RANGE[0] or p.a.max() > RADIUS_RANGE[1]:
+            return False
+    for i, oi in enumerate(scene.objects):
+        for j in range(i + 1, len(scene.objects)):
+            oj, pi, pj = scene.objects[j], poses[i], poses[j]
+            dist = np.hypot(pi.cx - pj.cx, pi.cy - pj.cy)
+            if oj.parent == i:
+                if np.any(dist + pj.a > pi.b - GAP):
+                    return False
+            elif np.any(dist < pi.a + pj.a + GAP):
+                return False
+    return True
+
+
+def draw_scene(seed: int, index: int) -> Scene:
+    """Scene ``index`` of the benchmark seeded ``seed``: its own generator (seed, index), so a scene does
+    not depend on how many are drawn. Layouts that break `layout_ok` are drawn again."""
+    rng = np.random.default_rng([seed, index])
+    units = str(rng.choice(list(UNITS)))
+    low, high = UNITS[units]
+    extent = float(rng.uniform(low, high))
+    acquisition = draw_acquisition(rng)
+    noise_i0 = None if rng.random() < P_NOISELESS else float(np.exp(rng.uniform(*np.log(I0_RANGE))))
+    n_objects = int(rng.integers(1, 4))
+    layout = "single" if n_objects == 1 else "nested" if rng.random() < P_NESTED else "apart"
+    static = rng.random() < P_STATIC_SCENE
+    for _ in range(MAX_TRIES):
+        objects = draw_objects(rng, n_objects, layout, static)
+        scene = Scene(index, units, extent, objects, layout, acquisition, noise_i0)
+        if layout_ok(scene):
+            return scene
+    raise RuntimeError(f"scene {index} (seed {seed}): no valid layout in {MAX_TRIES} tries")
+
+
+def draw_scenes(seed: int, n: int) -> list[Scene]:
+    """The first ``n`` scenes of the benchmark seeded ``seed``."""
+    return [draw_scene(seed, i) for i in range(n)]
+
+
+def draw_acquisition(rng: np.random.Generator) -> Acquisition:
+    """Views per rotation log-uniform in 90-720, 1-4 rotations, 0.2-0.5 s each, either sense, any
+    start angle, first view at 0-10 s, detector 1-1.15 times the FOV's side."""
+    views = int(round(np.exp(rng.uniform(*np.log(VIEWS_RANGE)))))
+    rotations = int(rng.integers(ROTATIONS_RANGE[0], ROTATIONS_RANGE[1] + 1))
+    return Acquisition(views_per_rotation=views, rotations=rotations,
+                       rotation_time=float(rng.uniform(*ROTATION_TIME_RANGE)), direction=int(rng.choice([-1, 1])),
+                       start_angle=float(rng.uniform(0, 2 * np.pi)), time_offset=float(rng.uniform(0, 10)),
+                       detector_width=float(rng.uniform(1.0, 1.15)))
+
+
+def draw_objects(rng: np.random.Generator, n: int, layout: str, static: bool) -> tuple[Ellipse, ...]:
+    """``n`` ellipses, largest first, semi-minor axes log-uniform in ``RADIUS_RANGE``; nested: objects
+    1.. inside object 0 (their centres and motions relative to it). In a moving scene each object
+    moves with probability 0.6, at least one does."""
+    sizes = sorted(np.exp(rng.uniform(*np.log(RADIUS_RANGE), size=n)), reverse=True)
+    moving = np.zeros(n, bool) if static else rng.random(n) < 0.6
+    if not static and not moving.any():
+        moving[rng.integers(n)] = True
+    objects: list[Ellipse] = []
+    for i, b in enumerate(sizes):
+        parent = 0 if layout == "nested" and i > 0 else None
+        kind = str(rng.choice(MOTIONS)) if moving[i] else "static"
+        room = FOV_RADIUS if parent is None else inner_room(objects[0])
+        objects.append(draw_ellipse(rng, float(b), room, parent, kind))
+    return tuple(objects)
+
+
+def inner_room(host: Ellipse) -> float:
+    """Radius of the circle, about its centre, that stays inside ``host`` at every time, less ``GAP``."""
+    shrink = 1 - host.motion.amplitude if host.motion.kind == "beat" else 1.0
+    return host.b * shrink - GAP
+
+
+def draw_ellipse(rng: np.random.Generator, b: float, room: float, parent: int | None, kind: str) -> Ellipse:
+    """One ellipse of semi-minor axis about ``b`` (its "radius") moving as ``kind``, built to stay within
+    ``room`` of the origin (or its parent's centre): the motion's amplitude is drawn first, the
+    semi-major axis from the aspect ratio (0.6-1; 0.5-0.75 for a rotation, so that the turn shows),
+    both shrunk to fit if they must, then the centre is drawn in the room left."""
+    motion = draw_motion(rng, kind, room - b)
+    swing = motion.amplitude if kind in ("orbit", "translation") else 0.0
+    grow = 1 + motion.amplitude if kind == "beat" else 1.0
+    aspect = rng.uniform(0.5, 0.75) if kind == "rotation" else rng.uniform(0.6, 1.0)
+    a = min(b / aspect, RADIUS_RANGE[1], (room - swing) / grow)
+    b = min(b, a * (0.75 if kind == "rotation" else 1.0))
+    reach = max(room - swing - a * grow, 0.0)
+    r, phi = reach * np.sqrt(rng.random()), rng.uniform(0, 2 * np.pi)
+    return Ellipse(centre=(float(r * np.cos(phi)), float(r * np.sin(phi))), a=float(a), b=float(b),
+                   angle=float(rng.uniform(0, np.pi)), intensity=float(rng.uniform(*INTENSITY_RANGE)),
+                   motion=motion, parent=parent)
+
+
+def draw_motion(rng: np.random.Generator, kind: str, free: float) -> Motion:
+    """A motion of ``kind`` at 5-200 deg/rot. Amplitude (``AMPLITUDE_RANGE``): orbit radius 5-30 %,
+    translation half-range 3-20 % of the FOV, capped at 80 % of the ``free`` room around the object;
+    beat 10-30 % of the axes."""
+    if kind == "static":
+        return Motion()
+    low, high = AMPLITUDE_RANGE.get(kind, (0.0, 0.0))
+    if kind in ("orbit", "translation"):
+        high = max(low, min(high, 0.8 * free))
+    direction = float(rng.choice([-1.0, 1.0])) if kind == "orbit" else float(rng.uniform(0, np.pi))
+    return Motion(kind, float(rng.uniform(MIN_DEG_PER_ROTATION, MAX_DEG_PER_ROTATION)), float(rng.uniform(low, high)),
+                  direction, float(rng.uniform(0, 2 * np.pi)))
+
+
+def chord_lengths(pose: Pose, angles: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Length of the chord that the ray at angle ``angles`` [V] and offset ``s`` [V, R] cuts through an
+    ellipse whose pose is given per view ([V] arrays): [V, R].
+
+    With θ' = θ − angle and h² = (a cos θ')² + (b sin θ')² (the ellipse's half-width seen along
+    s = x cos θ + y sin θ), the chord at offset s' from the centre's projection is
+    2ab·sqrt(h² − s'²)/h², zero beyond h.
+    """
+    rel = angles - pose.angle
+    h2 = (pose.a * np.cos(rel)) ** 2 + (pose.b * np.sin(rel)) ** 2
+    offset = s - (pose.cx * np.cos(angles) + pose.cy * np.sin(angles))[:, None]
+    inside = np.clip(h2[:, None] - offset**2, 0.0, None)
+    return 2 * (pose.a * pose.b / h2)[:, None] * np.sqrt(inside)
+
+
+def detector(scene: Scene, size: int) -> tuple[int, float]:
+    """(n_bins, bin_spacing) in unit FOV: the truth's pixel pitch, wide enough for ``detector_width``."""
+    return int(math.ceil(size * scene.acquisition.detector_width)), 1.0 / size
+
+
+def line_integrals(scene: Scene, size: int) -> np.ndarray:
+    """Exact line integrals of ``scene`` (unit FOV), each view at its own time, each bin the mean of
+    ``SUB_RAYS`` rays spread over its width: [V, n_bins] float64."""
+    acq = scene.acquisition
+    n_bins, spacing = detector(scene, size)
+    angles, times = acq.angles(), acq.times()
+    centres = (np.arange(n_bins) - (n_bins - 1) / 2) * spacing
+    sub = ((np.arange(SUB_RAYS) + 0.5) / SUB_RAYS - 0.5) * spacing
+    s = np.broadcast_to((centres[:, None] + sub[None, :]).ravel(), (angles.size, n_bins * SUB_RAYS))
+    total = np.zeros((angles.size, n_bins * SUB_RAYS))
+    for i, obj in enumerate(scene.objects):
+        total += obj.intensity * chord_lengths(Pose.of(scene, i, times), angles, s)
+    return total.reshape(angles.size, n_bins, SUB_RAYS).mean(axis=2)
+
+
+def attenuation_scale(extent: float) -> float:
+    """k with exp(−p·k) the transmitted fraction of a file line integral p: intensity 1 is taken as
+    0.2 /cm on a 25 cm field of view whatever the file's unit, so that the same scene gets the same
+    noise in every unit system (the project's convention, nct.simulate)."""
+    return MU_PER_INTENSITY_CM * FOV_SIDE_CM / extent
+
+
+def add_noise(values: np.ndarray, noise_i0: float, extent: float, rng: np.random.Generator) -> np.ndarray:
+    """Measured line integrals from Poisson counts ~ I0·exp(−p·k); a ray with no photon counts one."""
+    k = attenuation_scale(extent)
+    counts = rng.poisson(noise_i0 * np.exp(-values * k))
+    return -np.log(np.maximum(counts, 1) / noise_i0) / k
+
+
+def truth_times(scene: Scene, frames_per_rotation: int) -> np.ndarray:
+    """Times of the truth frames, s: ``frames_per_rotation`` per rotation, at the centres of equal
+    slices of the acquisition: [F]."""
+    acq = scene.acquisition
+    n = frames_per_rotation * acq.rotations
+    return acq.time_offset + (np.arange(n) + 0.5) * acq.duration / n
+
+
+def rasterise(scene: Scene, times: np.ndarray, size: int) -> np.ndarray:
+    """Truth frames at ``times`` on a ``size``² grid (unit FOV): intensities of overlapping objects add,
+    each pixel the mean of ``SUPERSAMPLE``² sub-pixels. Columns run along x, rows down y (y up, as
+    the file format says): [F, size, size] float32."""
+    fine = size * SUPERSAMPLE
+    c = (np.arange(fine) + 0.5) / fine - 0.5
+    x, y = np.meshgrid(c, c[::-1])
+    frames = np.zeros((times.size, fine, fine))
+    for i, obj in enumerate(scene.objects):
+        p = Pose.of(scene, i, times)
+        for f in range(times.size):
+            dx, dy = x - p.cx[f], y - p.cy[f]
+            u = dx * np.cos(p.angle[f]) + dy * np.sin(p.angle[f])
+            v = -dx * np.sin(p.angle[f]) + dy * np.cos(p.angle[f])
+            frames[f] += obj.intensity * ((u / p.a[f]) ** 2 + (v / p.b[f]) ** 2 <= 1)
+    return frames.reshape(times.size, size, SUPERSAMPLE, size, SUPERSAMPLE).mean(axis=(2, 4)).astype(np.float32)
+
+
+def write_scene(scene: Scene, path: Path, size: int, frames_per_rotation: int, seed: int) -> Path:
+    """Simulate ``scene`` and write it in the documented sinogram format, lengths in its own units:
+    sinogram [V, B] float32, angles, times, bin_spacing, truth [F, size, size], truth_times,
+    truth_extent, truth_level (half the faintest object's intensity). ``seed`` drives the noise."""
+    values = line_integrals(scene, size) * scene.extent
+    if scene.noise_i0 is not None:
+        values = add_noise(values, scene.noise_i0, scene.extent, np.random.default_rng([seed, scene.index, 1]))
+    times = truth_times(scene, frames_per_rotation)
+    _, spacing = detector(scene, size)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, sinogram=values.astype(np.float32), angles=scene.acquisition.angles(),
+                        times=scene.acquisition.times(), bin_spacing=np.float64(spacing * scene.extent),
+                        truth=rasterise(scene, times, size), truth_times=times,
+                        truth_extent=np.float64(scene.extent),
+                        truth_level=np.float64(0.5 * min(o.intensity for o in scene.objects)))
+    return path
