@@ -16,9 +16,9 @@ TINY = [
     "image.frames_per_rotation=6",
     "scanner.views_per_rotation=60",
     "scanner.n_bins=32",
-    "trainer.init_steps=5",
-    "trainer.fit_steps=5",
-    "trainer.refine=false",
+    "optim.init_steps=5",
+    "optim.fit_steps=5",
+    "optim.refine=false",
     "export.strip_frames=3",
 ]
 

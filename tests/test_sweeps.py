@@ -59,7 +59,7 @@ def test_paper_sweeps_match_the_paper(name: str, values: dict, n_jobs: int):
     if name != "displacement":
         assert cfg.phantom.displacement_deg == 100.0
     default = compose_hydra()  # all but the swept keys (set per job) stay at the tuned defaults
-    for part in ("loss", "model", "trainer", "image", "scanner", "data", "seed"):
+    for part in ("loss", "model", "optim", "render", "init", "heldout", "trainer", "image", "scanner", "data", "seed"):
         assert cfg[part] == default[part], part
 
 
@@ -71,7 +71,7 @@ def test_quick_sweeps_are_small_subsets_of_the_paper_sweeps(name: str):
     for key, values in swept(quick).items():
         assert set(values) < set(swept(full)[key]), key
     assert len(planned_overrides(quick.hydra.sweeper.params, [])) <= 10
-    assert quick.image.size <= 64 and quick.trainer.fit_steps <= 500 and not quick.trainer.refine
+    assert quick.image.size <= 64 and quick.optim.fit_steps <= 500 and not quick.optim.refine
     assert quick.hydra.launcher._target_.endswith("JoblibLauncher")  # one torch thread per job
     assert full.hydra.launcher._target_.endswith("BasicLauncher")  # full sweeps: the user picks
     assert (quick.phantom, quick.loss, quick.model.f_max) == (full.phantom, full.loss, full.model.f_max)

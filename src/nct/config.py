@@ -20,7 +20,7 @@ from nct.fields import ModelConf
 from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
 from nct.projector import FILTERS
 from nct.scanner import ImageGrid, Scanner
-from nct.stages import LossConf, TrainerConf
+from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
 
 
 @dataclass
@@ -148,6 +148,10 @@ class NCTConf:
     model: ModelConf = field(default_factory=ModelConf)
     capacity: CapacityConf = field(default_factory=CapacityConf)
     loss: LossConf = field(default_factory=LossConf)
+    optim: OptimConf = field(default_factory=OptimConf)
+    render: RenderConf = field(default_factory=RenderConf)
+    init: InitConf = field(default_factory=InitConf)
+    heldout: HeldoutConf = field(default_factory=HeldoutConf)
     trainer: TrainerConf = field(default_factory=TrainerConf)
     logger: LoggerConf = field(default_factory=LoggerConf)
     export: ExportConf = field(default_factory=ExportConf)
@@ -163,9 +167,9 @@ class NCTConf:
             raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
-        if self.capacity.auto and self.trainer.heldout_every < 2:
-            raise ValueError("capacity=auto scores each model on held-out views: trainer.heldout_every must be "
-                             f">= 2, got {self.trainer.heldout_every}")
+        if self.capacity.auto and self.heldout.every < 2:
+            raise ValueError("capacity=auto scores each model on held-out views: heldout.every must be "
+                             f">= 2, got {self.heldout.every}")
 
 
 SCHEMAS: dict[str, dict[str, type]] = {
@@ -178,6 +182,10 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "model": {"default": ModelConf},
     "capacity": {"default": CapacityConf},
     "loss": {"default": LossConf},
+    "optim": {"default": OptimConf},
+    "render": {"default": RenderConf},
+    "init": {"default": InitConf},
+    "heldout": {"default": HeldoutConf},
     "trainer": {"default": TrainerConf},
     "logger": {"default": LoggerConf},
 }

@@ -16,14 +16,10 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from nct.errors import require
+
 FAMILIES = ("siren", "grid")
 HIDDEN_OMEGA = 30.0  # SIREN's frequency for hidden layers (Sitzmann et al.); its init compensates
-
-
-def require(ok: bool, key: str, expected: str, got: object) -> None:
-    """Raise ValueError naming the config ``key`` and what was ``expected`` unless ``ok``."""
-    if not ok:
-        raise ValueError(f"{key} must be {expected}, got {got!r}")
 
 
 @dataclass
