@@ -1,9 +1,16 @@
 """The typed config: every group composes, and bad values fail at start naming the key."""
 
+import subprocess
+import sys
+from importlib.resources import files
+from pathlib import Path
+
 import pytest
+import yaml
 from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
+import nct
 from nct.config import NCTConf, validate
 from nct.method_conf import HeldoutConf, InitConf, OptimConf, RenderConf, TrainerConf
 from nct.errors import InputError
@@ -95,3 +102,14 @@ def test_range_errors_name_the_key(override, key):
 
 def test_default_run_is_the_circle_experiment():
     assert validate(compose_config([])) == validate(compose_config(["experiment=circle"]))
+
+
+def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path):
+    conf_dir = Path(str(files("nct.conf")))
+    assert conf_dir == Path(nct.__file__).parent / "conf" and (conf_dir / "config.yaml").is_file()
+    assert not [p for p in conf_dir.rglob("*") if p.is_symlink()]
+    done = subprocess.run([sys.executable, "-m", "nct.cli", "--cfg", "hydra"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    sources = yaml.safe_load(done.stdout)["hydra"]["runtime"]["config_sources"]
+    assert {"path": "nct.conf", "schema": "pkg", "provider": "main"} in sources

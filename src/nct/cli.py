@@ -12,14 +12,14 @@ from omegaconf import DictConfig, OmegaConf
 
 from nct.config import register_configs
 
-CONFIG_DIR = Path(__file__).resolve().parents[2] / "conf"
+CONFIG_MODULE = "nct.conf"
 
 # Cached: Hydra copies the resolver cache into every job, so all jobs of a sweep share one folder.
 OmegaConf.register_new_resolver("nct_pid", lambda: str(os.getpid()), replace=True, use_cache=True)
 register_configs()
 
 
-@hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name="config")
+@hydra.main(version_base="1.3", config_path=f"pkg://{CONFIG_MODULE}", config_name="config")
 def app(cfg: DictConfig) -> float | None:
     """Run one reconstruction into Hydra's output folder; return the truth-free held-out loss."""
     from nct.errors import InputError
@@ -38,9 +38,6 @@ def app(cfg: DictConfig) -> float | None:
 
 def main() -> None:
     """Console entry point (``nct``)."""
-    if not CONFIG_DIR.is_dir():
-        sys.exit(f"nct: error: config folder {CONFIG_DIR} not found: install nct from a source checkout "
-                 "(pip install -e .)")
     app()
 
 

@@ -1,6 +1,6 @@
 """Hydra structured-config schema: one dataclass per config group, validated at start.
 
-Each YAML option under ``conf/<group>/`` extends its group's schema (``defaults: [<schema>]``),
+Each YAML option under ``nct/conf/<group>/`` (package data) extends its group's schema (``defaults: [<schema>]``),
 so a misspelt key or a value of the wrong type fails when the config is composed, naming the
 key. Range checks live in each dataclass's ``__post_init__`` and run in `validate`.
 """
@@ -192,15 +192,16 @@ SCHEMAS: dict[str, dict[str, type]] = {
 
 
 def register_configs() -> None:
-    """Store the schemas: ``nct_schema`` for the primary config, ``schema/<group>/<name>`` per option.
+    """Store the schemas: ``nct_schema`` for the primary config, ``schema_<group>_<name>`` per option.
 
-    An option extends its schema with ``defaults: [/schema/<group>/<name>@_here_]``.
+    An option extends its schema with ``defaults: [/schema_<group>_<name>@_here_]``. The schemas
+    are stored outside any config group, so that ``nct --help`` lists only the groups users pick.
     """
     cs = ConfigStore.instance()
     cs.store(name="nct_schema", node=NCTConf)
     for group, options in SCHEMAS.items():
         for name, node in options.items():
-            cs.store(group=f"schema/{group}", name=name, node=node)
+            cs.store(name=f"schema_{group}_{name}", node=node)
 
 
 def validate(cfg: DictConfig) -> NCTConf:
