@@ -92,6 +92,9 @@ def test_composition_errors_name_the_key(override, error, words):
         ("init.frames_per_rotation=0", "init.frames_per_rotation must be >= 1"),
         ("heldout.every=-1", "heldout.every must be >= 0"),
         ("trainer.devices=0", "trainer.devices must be >= 1"),
+        ("+phantom.displacment_deg=50", "did you mean phantom.displacement_deg?"),
+        ("+seeds=1", "unknown key seeds: not a setting of the config; did you mean seed?"),
+        ("phantom=composed +phantom.objects.0.angle=1", "unknown key phantom.objects[0].angle"),
     ],
 )
 def test_range_errors_name_the_key(override, key):

@@ -7,11 +7,13 @@ key. Range checks live in each dataclass's ``__post_init__`` and run in `validat
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import difflib
+from collections.abc import Iterator
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING, DictConfig, OmegaConf
+from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from nct.capacity import CapacityConf
@@ -205,16 +207,52 @@ def register_configs() -> None:
 
 
 def validate(cfg: DictConfig) -> NCTConf:
-    """Build the typed config, running every range check; raise `InputError` naming the key."""
+    """Build the typed config, running every range check; raise `InputError` naming the key.
+
+    A key no schema declares is refused too, also one added with ``+`` (Hydra lets those through).
+    """
+    for key, schema in undeclared_keys(cfg):
+        raise InputError(unknown_key(key, schema))
     try:
         conf = OmegaConf.to_object(cfg)
     except OmegaConfBaseException as err:
-        raise InputError(str(err).splitlines()[0] + _key_suffix(err)) from None
+        raise InputError(describe(err)) from None
     except ValueError as err:
         raise InputError(str(err)) from None
     if not isinstance(conf, NCTConf):
         raise InputError("the composed config is not an nct config (primary config must extend nct_schema)")
     return conf
+
+
+def undeclared_keys(node: DictConfig, prefix: str = "") -> Iterator[tuple[str, type]]:
+    """(full key, schema) of every key of ``node`` and its children that its node's schema lacks."""
+    schema = OmegaConf.get_type(node)
+    declared = {f.name for f in fields(schema)} if is_dataclass(schema) else None
+    for key, child in node.items_ex(resolve=False):
+        full = f"{prefix}{key}"
+        if declared is not None and key not in declared:
+            yield full, schema
+        elif isinstance(child, DictConfig):
+            yield from undeclared_keys(child, full + ".")
+        elif isinstance(child, ListConfig):
+            for i, item in enumerate(child):
+                if isinstance(item, DictConfig):
+                    yield from undeclared_keys(item, f"{full}[{i}].")
+
+
+def unknown_key(full_key: str, schema: type) -> str:
+    """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean."""
+    parent, _, key = full_key.rpartition(".")
+    known = [f.name for f in fields(schema)]
+    close = difflib.get_close_matches(key, known, n=1)
+    where = f"{parent} ({schema.__name__})" if parent else "the config"
+    hint = f"did you mean {parent + '.' if parent else ''}{close[0]}?" if close else f"its keys: {', '.join(known)}"
+    return f"unknown key {full_key}: not a setting of {where}; {hint}"
+
+
+def describe(err: OmegaConfBaseException) -> str:
+    """An OmegaConf error in one line, with the full key when its message lacks it."""
+    return str(err).splitlines()[0] + _key_suffix(err)
 
 
 def _key_suffix(err: OmegaConfBaseException) -> str:

@@ -25,7 +25,7 @@ from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
-from nct.errors import DivergenceError
+from nct.errors import DivergenceError, InputError
 from nct.fields import Field
 from nct.method_conf import LossConf, OptimConf, RenderConf, TrainerConf
 from nct.render import intensity, occupancy, project_frames
@@ -287,6 +287,15 @@ def show_progress(conf: TrainerConf) -> bool:
     return sys.stdout.isatty() if conf.progress_bar is None else bool(conf.progress_bar)
 
 
+def check_accelerator(accelerator: str) -> None:
+    """Refuse a GPU accelerator that torch cannot use, naming the fix (Lightning would fail deep inside)."""
+    if accelerator in ("gpu", "cuda") and not (torch.cuda.is_available() or torch.backends.mps.is_available()):
+        build = "a CPU-only build" if torch.version.cuda is None else "a CUDA build but sees no GPU"
+        raise InputError(f"trainer.accelerator={accelerator}: torch {torch.__version__} is {build}; install a CUDA "
+                         "build of torch (https://pytorch.org/get-started/locally/) on a machine with an NVIDIA GPU, "
+                         "or use trainer=cpu")
+
+
 @contextmanager
 def quiet_lightning() -> Iterator[None]:
     """Silence Lightning's per-Trainer banners (accelerator, tips, "max_steps reached") and the
@@ -310,6 +319,7 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``."""
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+    check_accelerator(conf.accelerator)
     start = time.perf_counter()
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
