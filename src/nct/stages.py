@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 import warnings
 from collections.abc import Iterator
@@ -28,6 +27,7 @@ from torch.utils.data import DataLoader, IterableDataset
 from nct.errors import DivergenceError, InputError
 from nct.fields import Field
 from nct.method_conf import LossConf, OptimConf, RenderConf, TrainerConf
+from nct.progress import StageBar, log_stage, show_bar
 from nct.render import intensity, occupancy, project_frames
 from nct.scanner import ImageGrid
 
@@ -282,11 +282,6 @@ class ImageLog(Callback):
                              trainer.global_step)
 
 
-def show_progress(conf: TrainerConf) -> bool:
-    """The progress bar setting: on when asked, or when stdout is a terminal."""
-    return sys.stdout.isatty() if conf.progress_bar is None else bool(conf.progress_bar)
-
-
 def check_accelerator(accelerator: str) -> None:
     """Refuse a GPU accelerator that torch cannot use, naming the fix (Lightning would fail deep inside)."""
     if accelerator in ("gpu", "cuda") and not (torch.cuda.is_available() or torch.backends.mps.is_available()):
@@ -324,6 +319,8 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
     callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
+    bar = show_bar(conf.progress_bar)
+    callbacks += [StageBar(name)] if bar else []
     stage_logger: TensorBoardLogger | CSVLogger | bool = False
     if log_dir is not None and logger == "tensorboard":
         stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
@@ -335,12 +332,15 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
         trainer = L.Trainer(
             accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
             logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
-            enable_progress_bar=show_progress(conf), enable_model_summary=False,
-            log_every_n_steps=conf.log_every_n_steps, num_sanity_val_steps=0, limit_val_batches=0,
+            enable_progress_bar=bar, enable_model_summary=False,
+            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0, limit_val_batches=0,
         )
         trainer.fit(module, datamodule=data)
         if log_dir is not None:
             trainer.save_checkpoint(Path(log_dir) / "checkpoints" / name / "last.ckpt")
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith("train/")}
-    return {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    if not bar:
+        log_stage(name, result)
+    return result
