@@ -31,7 +31,7 @@ def test_without_a_bar_each_stage_logs_one_line(caplog):
                              TrainerConf(accelerator="cpu", progress_bar=False), 0, logger="none", optim=optim,
                              init=InitConf(frames_per_rotation=6))
     lines = [r.getMessage() for r in caplog.records if r.name == "nct.progress"]
-    assert [line.split(":")[0] for line in lines] == ["stage init", "stage fit", "stage refine_init", "stage refine_fit"]
+    assert [line.split(":")[0] for line in lines] == [f"stage {s}" for s in ("init", "fit", "refine_init", "refine_fit")]
     for line, (stage, record) in zip(lines, result.stages.items()):
         steps, loss, seconds = re.fullmatch(r"stage \w+: (\d+) steps, loss (\S+), (\S+) s", line).groups()
         assert int(steps) == record["steps"] == {"init": 4, "fit": 6, "refine_init": 2, "refine_fit": 3}[stage]

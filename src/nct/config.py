@@ -18,11 +18,10 @@ from omegaconf.errors import OmegaConfBaseException
 
 from nct.capacity import CapacityConf
 from nct.errors import InputError
-from nct.fields import ModelConf
 from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
-from nct.projector import FILTERS
 from nct.scanner import ImageGrid, Scanner
-from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.method_conf import (LOGGERS, FBPConf, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
+                              RenderConf, TrainerConf)
 
 
 @dataclass
@@ -87,23 +86,6 @@ class ImageConf:
 
     def build(self) -> ImageGrid:
         return ImageGrid(self.size, self.extent)
-
-
-@dataclass
-class FBPConf:
-    """FBP frames: ``filter`` one of projector.FILTERS; ``window_deg`` 180 (shortest complete) or 360."""
-
-    filter: str = "ramp"
-    window_deg: float = 180.0
-
-    def __post_init__(self) -> None:
-        if self.filter not in FILTERS:
-            raise ValueError(f"fbp.filter must be one of {', '.join(FILTERS)}, got '{self.filter}'")
-        if not 0 < self.window_deg <= 360:
-            raise ValueError(f"fbp.window_deg must be in (0, 360], got {self.window_deg}")
-
-
-LOGGERS = ("tensorboard", "csv", "none")
 
 
 @dataclass

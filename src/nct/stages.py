@@ -26,13 +26,10 @@ from torch.utils.data import DataLoader, IterableDataset
 
 from nct.errors import DivergenceError, InputError
 from nct.fields import Field
-from nct.method_conf import LossConf, OptimConf, RenderConf, TrainerConf
+from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.progress import StageBar, log_stage, show_bar
 from nct.render import intensity, occupancy, project_frames
 from nct.scanner import ImageGrid
-
-LOGGERS = ("tensorboard", "csv", "none")
-
 
 @dataclass(frozen=True)
 class Views:
