@@ -29,6 +29,10 @@ class StageBar(TQDMProgressBar):
         super().__init__()
         self.stage = stage
 
+    @property
+    def train_description(self) -> str:
+        return self.stage
+
     def init_train_tqdm(self):
         bar = super().init_train_tqdm()
         bar.dynamic_ncols = False
