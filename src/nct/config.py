@@ -193,8 +193,9 @@ def validate(cfg: DictConfig) -> NCTConf:
 
     A key no schema declares is refused too, also one added with ``+`` (Hydra lets those through).
     """
-    for key, schema in undeclared_keys(cfg):
-        raise InputError(unknown_key(key, schema))
+    unknown = next(undeclared_keys(cfg), None)
+    if unknown is not None:
+        raise InputError(unknown_key(*unknown))
     try:
         conf = OmegaConf.to_object(cfg)
     except OmegaConfBaseException as err:
