@@ -14,7 +14,8 @@ import torch
 
 from nct.fields import ModelConf, build_field
 from nct.scanner import ImageGrid
-from nct.stages import LossConf, SinogramFit, TrainerConf, Views
+from nct.method_conf import LossConf, OptimConf, RenderConf
+from nct.stages import SinogramFit, Views
 
 CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_terms": 0}), ("siren", {
     "width": 256, "temporal_width": 128, "n_terms": 128, "f_max": 3.0}))
@@ -25,7 +26,7 @@ def step_ms(model: ModelConf, size: int, views: int, steps: int = 20, warmup: in
     n_views = 720
     data = Views(torch.rand(n_views, size), torch.linspace(0, 6.28, n_views), torch.linspace(0, 1, n_views), 1 / size)
     net = build_field(model, 1, torch.Generator().manual_seed(0))
-    fit = SinogramFit(net, ImageGrid(size, 1.0), TrainerConf(), LossConf(), data, torch.tensor([1.0]), steps)
+    fit = SinogramFit(net, ImageGrid(size, 1.0), OptimConf(), RenderConf(), LossConf(), data, torch.tensor([1.0]), steps)
     fit.log_dict = lambda *args, **kwargs: None  # outside a Trainer: nothing to log to
     opt = torch.optim.Adam(fit.parameters(), 1e-3)
     batches = torch.Generator().manual_seed(1)

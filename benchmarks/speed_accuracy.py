@@ -72,7 +72,7 @@ def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]
              Config("nct-auto", "nct", ("capacity=auto",))]
 
     def paper(steps: int, **kw) -> Config:
-        return Config(f"paper-{steps}steps", "nct", ("model=paper", "trainer.refine=true",
+        return Config(f"paper-{steps}steps", "nct", ("model=paper", "optim.refine=true",
                                                      *stage_steps(defaults, steps)), reference=True, n_seeds=1, **kw)
 
     short = paper(max(1, paper_steps // 10))

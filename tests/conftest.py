@@ -5,29 +5,33 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
+from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig
 
-from nct.cli import CONFIG_DIR
+from nct.cli import CONFIG_MODULE
 
 TINY = [
     "image.size=32",
     "image.frames_per_rotation=6",
     "scanner.views_per_rotation=60",
     "scanner.n_bins=32",
-    "trainer.init_steps=5",
-    "trainer.fit_steps=5",
-    "trainer.refine=false",
+    "optim.init_steps=5",
+    "optim.fit_steps=5",
+    "optim.refine=false",
     "export.strip_frames=3",
 ]
 
 
-def compose_config(overrides: list[str]) -> DictConfig:
-    """The primary config with ``overrides``, as ``nct`` would compose it."""
+def compose_config(overrides: list[str], with_hydra: bool = False) -> DictConfig:
+    """The primary config with ``overrides``, as ``nct`` composes it from the package's configs
+    (with its ``hydra`` node when ``with_hydra``)."""
     GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
-        return compose(config_name="config", overrides=overrides)
+    try:
+        with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+            return compose(config_name="config", overrides=overrides, return_hydra_config=with_hydra)
+    finally:
+        GlobalHydra.instance().clear()
 
 
 @pytest.fixture

@@ -19,7 +19,7 @@ from nct.benchmarking import (
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 TINY = ("image.size=32", "image.frames_per_rotation=6", "scanner.views_per_rotation=60", "scanner.n_bins=32",
-        "trainer.refine=false")
+        "optim.refine=false")
 
 
 def load_script(name: str):
@@ -125,20 +125,20 @@ def test_markdown_table_formats_numbers():
 
 def test_speed_configs_follow_the_configured_steps(tmp_path):
     speed = load_script("speed_accuracy")
-    defaults = OmegaConf.create({"trainer": {"init_steps": 300, "fit_steps": 800, "refine_init_steps": 200,
-                                             "refine_fit_steps": 400, "warmup_steps": 50, "lr_decay_every": 200,
-                                             "log_every_n_steps": 10}})
+    defaults = OmegaConf.create({"optim": {"init_steps": 300, "fit_steps": 800, "refine_init_steps": 200,
+                                           "refine_fit_steps": 400, "warmup_steps": 50, "lr_decay_every": 200,
+                                           "lr": 1e-3}, "trainer": {"log_every_n_steps": 10}})
     cfgs = {c.name: c for c in speed.configs(defaults, quick=False, paper_steps=100)}
     assert list(cfgs) == ["fbp", "nct-x0.25", "nct-x0.5", "nct-default", "nct-x2", "nct-small", "grid-x0.5", "grid",
                           "grid-auto", "nct-auto", "paper-10steps", "paper-100steps"]
     assert cfgs["grid-auto"].overrides == ("model=grid", "capacity=auto")
-    assert cfgs["grid-x0.5"].overrides[:3] == ("model=grid", "trainer.init_steps=150", "trainer.fit_steps=400")
+    assert cfgs["grid-x0.5"].overrides[:3] == ("model=grid", "optim.init_steps=150", "optim.fit_steps=400")
     assert cfgs["nct-x0.25"].overrides == (
-        "trainer.init_steps=75", "trainer.fit_steps=200", "trainer.refine_init_steps=50",
-        "trainer.refine_fit_steps=100", "trainer.warmup_steps=12", "trainer.lr_decay_every=50")
+        "optim.init_steps=75", "optim.fit_steps=200", "optim.refine_init_steps=50",
+        "optim.refine_fit_steps=100", "optim.warmup_steps=12", "optim.lr_decay_every=50")
     paper = cfgs["paper-100steps"]
-    assert paper.overrides == ("model=paper", "trainer.refine=true", "trainer.init_steps=100", "trainer.fit_steps=100",
-                               "trainer.refine_init_steps=100", "trainer.refine_fit_steps=100")
+    assert paper.overrides == ("model=paper", "optim.refine=true", "optim.init_steps=100", "optim.fit_steps=100",
+                               "optim.refine_init_steps=100", "optim.refine_fit_steps=100")
     assert (paper.reference, paper.extrapolate_steps, paper.short, paper.n_seeds) == (True, 5000, "paper-10steps", 1)
     jobs = speed.plan(tmp_path, {"static": ("experiment=static",)}, list(cfgs.values()), [0, 1, 2])
     assert len(jobs) == 10 * 3 + 2 and jobs[0].command()[3:5] == ["experiment=static", "logger=none"]
@@ -173,9 +173,9 @@ def test_headline_compares_our_time_to_target_with_the_paper_sized_model(tmp_pat
 def test_speed_accuracy_runs_a_tiny_benchmark_end_to_end(tmp_path):
     speed = load_script("speed_accuracy")
     cfgs = [speed.Config("fbp", "fbp"),
-            speed.Config("paper-tiny", "nct", ("trainer.init_steps=3", "trainer.fit_steps=3"), reference=True,
+            speed.Config("paper-tiny", "nct", ("optim.init_steps=3", "optim.fit_steps=3"), reference=True,
                          extrapolate_steps=30),
-            speed.Config("broken", "nct", ("trainer.lr=-1",))]
+            speed.Config("broken", "nct", ("optim.lr=-1",))]
     rows = speed.run_benchmark(tmp_path, {"circle_100": speed.SCENES["circle_100"]}, cfgs, [0], n_jobs=2,
                                extra=TINY, command="tiny")
     runs = read_csv(tmp_path / "runs.csv")
@@ -188,7 +188,7 @@ def test_speed_accuracy_runs_a_tiny_benchmark_end_to_end(tmp_path):
         assert 0 <= float(r["dice_median"]) <= 1 and float(r["mse_median"]) >= 0
         assert r["threads"] == "1"
     assert runs[0]["n_params"] == "0.0" and float(runs[1]["n_params"]) > 100
-    assert "trainer.lr" in runs[2]["error"] and runs[2]["dice_median"] == "nan"
+    assert "optim.lr" in runs[2]["error"] and runs[2]["dice_median"] == "nan"
     fbp, nct, broken = rows
     assert fbp["dice_median"] == pytest.approx(float(runs[0]["dice_median"])) and fbp["pareto"]
     assert nct["time_extrapolated_s"] > nct["run_time_s"]
@@ -204,11 +204,11 @@ def test_speed_accuracy_runs_a_tiny_benchmark_end_to_end(tmp_path):
 def test_stability_plans_every_setting_and_maps_failures(tmp_path):
     stability = load_script("stability")
     stress = stability.axes(quick=True, base_displacement=40)
-    jobs = stability.plan(tmp_path, stress, [0, 1], nct=("trainer.fit_steps=7",))
+    jobs = stability.plan(tmp_path, stress, [0, 1], nct=("optim.fit_steps=7",))
     assert len(jobs) == 3 * 3 * 2 * 2
     noise = [j for j in jobs if j.labels == {"axis": "noise", "setting": 1e3} and j.method == "nct" and j.seed == 1]
     assert len(noise) == 1 and noise[0].overrides[:4] == (
-        "experiment=circle", "phantom.displacement_deg=40", "data.noise_i0=1000.0", "trainer.fit_steps=7")
+        "experiment=circle", "phantom.displacement_deg=40", "data.noise_i0=1000.0", "optim.fit_steps=7")
     scores = {("fbp", 720): [0.95, 0.93], ("fbp", 360): [0.9, 0.8], ("nct", 720): [0.97, 0.96],
               ("nct", 360): [0.95, None]}
     axis = stability.Axis("views", "scanner.views_per_rotation", "views", (720, 360))

@@ -13,11 +13,12 @@ from nct.metrics import frame_metrics
 from nct.phantoms import CircleConf, StaticConf, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
-from nct.stages import LossConf, TrainerConf
+from nct.method_conf import LossConf, OptimConf, TrainerConf
 
 GRID = ImageGrid(32)
 MODEL = ModelConf(family="grid", resolution=32, temporal_resolution=16, levels=3)
-TRAINER = TrainerConf(accelerator="cpu", init_steps=100, fit_steps=200, refine=False, progress_bar=False)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=100, fit_steps=200, refine=False)
 AUTO = CapacityConf(name="auto", auto=True, ladder=[0, 8, 32], tolerance=0.05)
 
 
@@ -63,7 +64,7 @@ def choose(phantom_conf, seed: int = 0):
     sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(seed))
     n_objects = len(phantom.intensities)
     result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
-                         n_objects=n_objects, capacity=AUTO)
+                         n_objects=n_objects, capacity=AUTO, optim=OPTIM)
     return result, float(np.median(frame_metrics(result.frames, sino.truth.frames, sino.truth.level).dice))
 
 

@@ -1,10 +1,18 @@
 """The typed config: every group composes, and bad values fail at start naming the key."""
 
+import subprocess
+import sys
+from importlib.resources import files
+from pathlib import Path
+
 import pytest
+import yaml
 from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
+import nct
 from nct.config import NCTConf, validate
+from nct.method_conf import HeldoutConf, InitConf, OptimConf, RenderConf, TrainerConf
 from nct.errors import InputError
 
 from conftest import compose_config
@@ -22,6 +30,21 @@ def test_defaults_are_the_documented_ones():
     assert (conf.scanner.views_per_rotation, conf.scanner.n_bins) == (720, 128)
     assert conf.phantom.displacement_deg == 100.0 and conf.phantom.radius == 0.15
     assert conf.seed == 0 and conf.fbp.window_deg == 180.0
+
+
+def test_method_groups_keep_the_tuned_defaults():
+    conf = validate(compose_config([]))
+    assert (conf.optim, conf.render, conf.init, conf.heldout) == (OptimConf(), RenderConf(), InitConf(), HeldoutConf())
+    o = conf.optim
+    assert (o.init_steps, o.fit_steps, o.refine_init_steps, o.refine_fit_steps) == (300, 1000, 100, 300)
+    assert (o.lr, o.refine_lr, o.warmup_steps, o.lr_decay, o.lr_decay_every) == (1e-3, 1e-4, 50, 0.65, 100)
+    assert (o.batch_views, o.intensity_lr, o.divergence_factor) == (20, 1e-2, 20.0)
+    assert o.refine and o.fit_intensities and o.min_loss == 0.0
+    r = conf.render
+    assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
+    assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share) == (60, 3, 0.02)
+    assert conf.heldout.every == 10
+    assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
 
 
 def test_groups_switch():
@@ -62,7 +85,18 @@ def test_composition_errors_name_the_key(override, error, words):
         ("model=grid model.levels=9", "model.resolution must be >= 2**model.levels"),
         ("capacity.ladder=[8,0]", "capacity.ladder must be strictly increasing"),
         ("capacity.tolerance=2", "capacity.tolerance"),
-        ("capacity=auto trainer.heldout_every=1", "trainer.heldout_every must be >= 2"),
+        ("capacity=auto heldout.every=1", "heldout.every must be >= 2"),
+        ("optim.lr=0", "optim.lr must be > 0"),
+        ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),
+        ("render.mu=1", "render.mu must be > 2"),
+        ("render.band_px=5", "render.band_start_px must be >= render.band_px"),
+        ("init.gmm_share=0", "init.gmm_share must be in (0, 1]"),
+        ("init.frames_per_rotation=0", "init.frames_per_rotation must be >= 1"),
+        ("heldout.every=-1", "heldout.every must be >= 0"),
+        ("trainer.devices=0", "trainer.devices must be >= 1"),
+        ("+phantom.displacment_deg=50", "did you mean phantom.displacement_deg?"),
+        ("+seeds=1", "unknown key seeds: not a setting of the config; did you mean seed?"),
+        ("phantom=composed +phantom.objects.0.angle=1", "unknown key phantom.objects[0].angle"),
     ],
 )
 def test_range_errors_name_the_key(override, key):
@@ -73,3 +107,21 @@ def test_range_errors_name_the_key(override, key):
 
 def test_default_run_is_the_circle_experiment():
     assert validate(compose_config([])) == validate(compose_config(["experiment=circle"]))
+
+
+def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path):
+    conf_dir = Path(str(files("nct.conf")))
+    assert conf_dir == Path(nct.__file__).parent / "conf" and (conf_dir / "config.yaml").is_file()
+    assert not [p for p in conf_dir.rglob("*") if p.is_symlink()]
+    done = subprocess.run([sys.executable, "-m", "nct.cli", "--cfg", "hydra"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    sources = yaml.safe_load(done.stdout)["hydra"]["runtime"]["config_sources"]
+    assert {"path": "nct.conf", "schema": "pkg", "provider": "main"} in sources
+
+
+def test_config_schemas_import_without_torch():
+    code = "import sys, nct.config; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -16,12 +16,14 @@ from nct.phantoms import CircleConf, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
 from nct.sinogram import Sinogram, Truth
-from nct.stages import DivergenceCheck, LossConf, TrainerConf
+from nct.method_conf import InitConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.stages import DivergenceCheck
 
 GRID = ImageGrid(32)
 MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", init_steps=30, fit_steps=40, refine=False, batch_views=8,
-                      init_frames_per_rotation=12, warmup_steps=5, lr_decay_every=20, progress_bar=False)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
+INIT = InitConf(frames_per_rotation=12)
 
 
 @pytest.fixture(scope="module")
@@ -32,8 +34,9 @@ def acquisition():
     return simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0)), times
 
 
-def run(sino, times, trainer=TRAINER, seed=0, **kw):
-    return reconstruct(sino, GRID, times, MODEL, LossConf(), trainer, seed, log_dir=None, logger="none", **kw)
+def run(sino, times, optim=OPTIM, seed=0, **kw):
+    return reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
+                       optim=optim, init=INIT, **kw)
 
 
 def test_runs_fits_and_is_seeded(acquisition):
@@ -47,7 +50,7 @@ def test_runs_fits_and_is_seeded(acquisition):
     np.testing.assert_array_equal(run(sino, times).frames, result.frames)
     assert not np.array_equal(run(sino, times, seed=1).frames, result.frames)
     # Fitting the sinogram lowers the misfit on views it never saw.
-    unfitted = run(sino, times, replace(TRAINER, fit_steps=0))
+    unfitted = run(sino, times, replace(OPTIM, fit_steps=0))
     assert result.heldout_loss < 0.8 * unfitted.heldout_loss
 
 
@@ -57,7 +60,7 @@ def test_fit_never_reads_the_truth(acquisition):
                  times=sino.truth.times, extent=9.0, level=0.1)
     swapped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=fake)
     stripped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=None)
-    short = replace(TRAINER, init_steps=10, fit_steps=10)
+    short = replace(OPTIM, init_steps=10, fit_steps=10)
     base = run(sino, times, short).frames
     np.testing.assert_array_equal(run(swapped, times, short).frames, base)
     np.testing.assert_array_equal(run(stripped, times, short).frames, base)
@@ -65,14 +68,14 @@ def test_fit_never_reads_the_truth(acquisition):
 
 def test_refinement_adds_the_second_pass(acquisition):
     sino, times = acquisition
-    trainer = replace(TRAINER, init_steps=5, fit_steps=5, refine=True, refine_init_steps=5, refine_fit_steps=5)
-    assert list(run(sino, times, trainer).stages) == ["init", "fit", "refine_init", "refine_fit"]
+    optim = replace(OPTIM, init_steps=5, fit_steps=5, refine=True, refine_init_steps=5, refine_fit_steps=5)
+    assert list(run(sino, times, optim).stages) == ["init", "fit", "refine_init", "refine_fit"]
 
 
 def test_huge_learning_rate_is_reported_as_divergence(acquisition):
     sino, times = acquisition
     with pytest.raises(DivergenceError, match="stage 'init' diverged at step"):
-        run(sino, times, replace(TRAINER, lr=1e3, warmup_steps=0))
+        run(sino, times, replace(OPTIM, lr=1e3, warmup_steps=0))
 
 
 def test_divergence_check_catches_nan():
@@ -108,7 +111,7 @@ def test_bad_arguments(acquisition):
         run(sino, times, n_objects=0)
     with pytest.raises(ValueError, match="logger"):
         reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, None, logger="wandb")
-    with pytest.raises(ValueError, match="trainer.band_start_px"):
-        TrainerConf(band_px=2.0, band_start_px=1.0)
+    with pytest.raises(ValueError, match="render.band_start_px must be >= render.band_px"):
+        RenderConf(band_px=2.0, band_start_px=1.0)
     with pytest.raises(ValueError, match="loss.tv_time"):
         LossConf(tv_time=-1.0)

@@ -14,11 +14,12 @@ from nct.phantoms import CircleConf, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
 from nct.sinogram import Sinogram
-from nct.stages import LossConf, TrainerConf
+from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
 
 MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", init_steps=40, fit_steps=60, refine=False, batch_views=8,
-                      init_frames_per_rotation=12, warmup_steps=5, lr_decay_every=30, progress_bar=False)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=40, fit_steps=60, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=30)
+INIT = InitConf(frames_per_rotation=12)
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +41,7 @@ def dice_in(sino: Sinogram, times: np.ndarray, length: float, intensity: float) 
     """Median NCT Dice of the scene written in the given units, and its frames in unit terms."""
     grid = ImageGrid(32, length)
     result = reconstruct(rescaled(sino, length, intensity), grid, times, MODEL, LossConf(), TRAINER, 0,
-                         log_dir=None, logger="none")
+                         log_dir=None, logger="none", optim=OPTIM, init=INIT)
     truth = sino.truth
     scores = frame_metrics(result.frames, truth.frames * intensity, truth.level * intensity)
     assert result.init["length_unit"] == pytest.approx(length)

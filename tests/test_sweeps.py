@@ -9,21 +9,22 @@ import shlex
 import shutil
 import subprocess
 import sys
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
-from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig
 
-from nct.cli import CONFIG_DIR
+from nct.cli import CONFIG_MODULE
 from nct.io import save_sinogram
 from nct.report import main as report_main
 from nct.report import planned_overrides, write_report
 from nct.sinogram import Sinogram
 
-SWEEPS = CONFIG_DIR.parent / "sweeps"
+from conftest import compose_config
+
+SWEEPS = Path(str(files(CONFIG_MODULE))) / "sweep"
 PAPER_WEIGHTS = [0, 0.05, 0.1, 0.15, 0.3, 0.5, 0.9, 1.5, 3, 5, 10]
 PAPER_DISPLACEMENTS = [0, 1, 5, 10, 20, 40, 70, 100, 120, 150, 200]
 NCT = Path(sys.executable).with_name("nct")
@@ -32,12 +33,7 @@ TINY = ["debug=tiny", "logger=none", "export.png=false"]
 
 def compose_hydra(*overrides: str) -> DictConfig:
     """The primary config with ``overrides``, including its ``hydra`` node."""
-    GlobalHydra.instance().clear()
-    try:
-        with initialize_config_dir(str(CONFIG_DIR), version_base="1.3"):
-            return compose("config", overrides=list(overrides), return_hydra_config=True)
-    finally:
-        GlobalHydra.instance().clear()
+    return compose_config(list(overrides), with_hydra=True)
 
 
 def swept(cfg: DictConfig) -> dict[str, list[float]]:
@@ -59,7 +55,7 @@ def test_paper_sweeps_match_the_paper(name: str, values: dict, n_jobs: int):
     if name != "displacement":
         assert cfg.phantom.displacement_deg == 100.0
     default = compose_hydra()  # all but the swept keys (set per job) stay at the tuned defaults
-    for part in ("loss", "model", "trainer", "image", "scanner", "data", "seed"):
+    for part in ("loss", "model", "optim", "render", "init", "heldout", "trainer", "image", "scanner", "data", "seed"):
         assert cfg[part] == default[part], part
 
 
@@ -71,7 +67,7 @@ def test_quick_sweeps_are_small_subsets_of_the_paper_sweeps(name: str):
     for key, values in swept(quick).items():
         assert set(values) < set(swept(full)[key]), key
     assert len(planned_overrides(quick.hydra.sweeper.params, [])) <= 10
-    assert quick.image.size <= 64 and quick.trainer.fit_steps <= 500 and not quick.trainer.refine
+    assert quick.image.size <= 64 and quick.optim.fit_steps <= 500 and not quick.optim.refine
     assert quick.hydra.launcher._target_.endswith("JoblibLauncher")  # one torch thread per job
     assert full.hydra.launcher._target_.endswith("BasicLauncher")  # full sweeps: the user picks
     assert (quick.phantom, quick.loss, quick.model.f_max) == (full.phantom, full.loss, full.model.f_max)
@@ -80,7 +76,6 @@ def test_quick_sweeps_are_small_subsets_of_the_paper_sweeps(name: str):
 def test_every_sweep_file_is_covered_here():
     names = {p.stem for p in SWEEPS.glob("*.yaml")}
     assert names == {"lambda_grid", "fmax", "displacement", "lambda_grid_quick", "fmax_quick", "displacement_quick"}
-    assert (CONFIG_DIR / "sweep").resolve() == SWEEPS.resolve()
 
 
 @pytest.mark.parametrize(("launcher", "target", "fields"), [

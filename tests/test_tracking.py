@@ -34,7 +34,7 @@ def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     import json
 
     cfg = tiny_cfg("capacity=auto", "capacity.ladder=[0,4]", "model=grid", "model.resolution=32",
-                   "model.temporal_resolution=8", "export.gif=false", "trainer.init_steps=20", "trainer.fit_steps=20")
+                   "model.temporal_resolution=8", "export.gif=false", "optim.init_steps=20", "optim.fit_steps=20")
     run_job(cfg, run_dir)
     capacity = json.loads((run_dir / "metrics.json").read_text())["capacity"]
     ladder = capacity["choice"]["ladder"]

@@ -252,14 +252,14 @@ SCHEDULE_STEPS = ("warmup_steps", "lr_decay_every")
 
 def stage_steps(defaults: DictConfig, steps: int) -> tuple[str, ...]:
     """Overrides giving every optimisation stage the configuration has (``STAGE_STEPS``) ``steps`` steps."""
-    return tuple(f"trainer.{k}={steps}" for k in STAGE_STEPS if k in defaults.trainer)
+    return tuple(f"optim.{k}={steps}" for k in STAGE_STEPS if k in defaults.optim)
 
 
 def scaled_steps(defaults: DictConfig, factor: float) -> tuple[str, ...]:
     """Overrides scaling each stage's configured step count and the learning-rate schedule (warm-up,
-    decay interval) of ``defaults.trainer`` by ``factor``: the same recipe, compressed or stretched."""
-    t = defaults.trainer
-    return tuple(f"trainer.{k}={max(1, round(t[k] * factor))}" for k in STAGE_STEPS + SCHEDULE_STEPS if k in t)
+    decay interval) of ``defaults.optim`` by ``factor``: the same recipe, compressed or stretched."""
+    t = defaults.optim
+    return tuple(f"optim.{k}={max(1, round(t[k] * factor))}" for k in STAGE_STEPS + SCHEDULE_STEPS if k in t)
 
 
 @dataclass(frozen=True)

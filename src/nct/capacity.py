@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from nct.fields import require
+from nct.errors import require
 
 
 @dataclass

@@ -1,26 +1,27 @@
 """Hydra structured-config schema: one dataclass per config group, validated at start.
 
-Each YAML option under ``conf/<group>/`` extends its group's schema (``defaults: [<schema>]``),
+Each YAML option under ``nct/conf/<group>/`` (package data) extends its group's schema (``defaults: [<schema>]``),
 so a misspelt key or a value of the wrong type fails when the config is composed, naming the
 key. Range checks live in each dataclass's ``__post_init__`` and run in `validate`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import difflib
+from collections.abc import Iterator
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING, DictConfig, OmegaConf
+from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from nct.capacity import CapacityConf
 from nct.errors import InputError
-from nct.fields import ModelConf
 from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
-from nct.projector import FILTERS
 from nct.scanner import ImageGrid, Scanner
-from nct.stages import LossConf, TrainerConf
+from nct.method_conf import (LOGGERS, FBPConf, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
+                              RenderConf, TrainerConf)
 
 
 @dataclass
@@ -93,23 +94,6 @@ class ImageConf:
 
 
 @dataclass
-class FBPConf:
-    """FBP frames: ``filter`` one of projector.FILTERS; ``window_deg`` 180 (shortest complete) or 360."""
-
-    filter: str = "ramp"
-    window_deg: float = 180.0
-
-    def __post_init__(self) -> None:
-        if self.filter not in FILTERS:
-            raise ValueError(f"fbp.filter must be one of {', '.join(FILTERS)}, got '{self.filter}'")
-        if not 0 < self.window_deg <= 360:
-            raise ValueError(f"fbp.window_deg must be in (0, 360], got {self.window_deg}")
-
-
-LOGGERS = ("tensorboard", "csv", "none")
-
-
-@dataclass
 class LoggerConf:
     """Training logger: tensorboard, csv or none."""
 
@@ -153,6 +137,10 @@ class NCTConf:
     model: ModelConf = field(default_factory=ModelConf)
     capacity: CapacityConf = field(default_factory=CapacityConf)
     loss: LossConf = field(default_factory=LossConf)
+    optim: OptimConf = field(default_factory=OptimConf)
+    render: RenderConf = field(default_factory=RenderConf)
+    init: InitConf = field(default_factory=InitConf)
+    heldout: HeldoutConf = field(default_factory=HeldoutConf)
     trainer: TrainerConf = field(default_factory=TrainerConf)
     logger: LoggerConf = field(default_factory=LoggerConf)
     export: ExportConf = field(default_factory=ExportConf)
@@ -168,9 +156,9 @@ class NCTConf:
             raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
-        if self.capacity.auto and self.trainer.heldout_every < 2:
-            raise ValueError("capacity=auto scores each model on held-out views: trainer.heldout_every must be "
-                             f">= 2, got {self.trainer.heldout_every}")
+        if self.capacity.auto and self.heldout.every < 2:
+            raise ValueError("capacity=auto scores each model on held-out views: heldout.every must be "
+                             f">= 2, got {self.heldout.every}")
 
 
 SCHEMAS: dict[str, dict[str, type]] = {
@@ -183,34 +171,76 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "model": {"default": ModelConf},
     "capacity": {"default": CapacityConf},
     "loss": {"default": LossConf},
+    "optim": {"default": OptimConf},
+    "render": {"default": RenderConf},
+    "init": {"default": InitConf},
+    "heldout": {"default": HeldoutConf},
     "trainer": {"default": TrainerConf},
     "logger": {"default": LoggerConf},
 }
 
 
 def register_configs() -> None:
-    """Store the schemas: ``nct_schema`` for the primary config, ``schema/<group>/<name>`` per option.
+    """Store the schemas: ``nct_schema`` for the primary config, ``schema_<group>_<name>`` per option.
 
-    An option extends its schema with ``defaults: [/schema/<group>/<name>@_here_]``.
+    An option extends its schema with ``defaults: [/schema_<group>_<name>@_here_]``. The schemas
+    are stored outside any config group, so that ``nct --help`` lists only the groups users pick.
     """
     cs = ConfigStore.instance()
     cs.store(name="nct_schema", node=NCTConf)
     for group, options in SCHEMAS.items():
         for name, node in options.items():
-            cs.store(group=f"schema/{group}", name=name, node=node)
+            cs.store(name=f"schema_{group}_{name}", node=node)
 
 
 def validate(cfg: DictConfig) -> NCTConf:
-    """Build the typed config, running every range check; raise `InputError` naming the key."""
+    """Build the typed config, running every range check; raise `InputError` naming the key.
+
+    A key no schema declares is refused too, also one added with ``+`` (Hydra lets those through).
+    """
+    unknown = next(undeclared_keys(cfg), None)
+    if unknown is not None:
+        raise InputError(unknown_key(*unknown))
     try:
         conf = OmegaConf.to_object(cfg)
     except OmegaConfBaseException as err:
-        raise InputError(str(err).splitlines()[0] + _key_suffix(err)) from None
+        raise InputError(describe(err)) from None
     except ValueError as err:
         raise InputError(str(err)) from None
     if not isinstance(conf, NCTConf):
         raise InputError("the composed config is not an nct config (primary config must extend nct_schema)")
     return conf
+
+
+def undeclared_keys(node: DictConfig, prefix: str = "") -> Iterator[tuple[str, type]]:
+    """(full key, schema) of every key of ``node`` and its children that its node's schema lacks."""
+    schema = OmegaConf.get_type(node)
+    declared = {f.name for f in fields(schema)} if is_dataclass(schema) else None
+    for key, child in node.items_ex(resolve=False):
+        full = f"{prefix}{key}"
+        if declared is not None and key not in declared:
+            yield full, schema
+        elif isinstance(child, DictConfig):
+            yield from undeclared_keys(child, full + ".")
+        elif isinstance(child, ListConfig):
+            for i, item in enumerate(child):
+                if isinstance(item, DictConfig):
+                    yield from undeclared_keys(item, f"{full}[{i}].")
+
+
+def unknown_key(full_key: str, schema: type) -> str:
+    """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean."""
+    parent, _, key = full_key.rpartition(".")
+    known = [f.name for f in fields(schema)]
+    close = difflib.get_close_matches(key, known, n=1)
+    where = f"{parent} ({schema.__name__})" if parent else "the config"
+    hint = f"did you mean {parent + '.' if parent else ''}{close[0]}?" if close else f"its keys: {', '.join(known)}"
+    return f"unknown key {full_key}: not a setting of {where}; {hint}"
+
+
+def describe(err: OmegaConfBaseException) -> str:
+    """An OmegaConf error in one line, with the full key when its message lacks it."""
+    return str(err).splitlines()[0] + _key_suffix(err)
 
 
 def _key_suffix(err: OmegaConfBaseException) -> str:

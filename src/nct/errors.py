@@ -15,3 +15,9 @@ class DivergenceError(MethodError):
 
 class NoObjectError(MethodError):
     """The data hold fewer objects than asked for (e.g. an empty sinogram): says what was found."""
+
+
+def require(ok: bool, key: str, expected: str, got: object) -> None:
+    """Raise ValueError naming the config ``key`` and what was ``expected`` unless ``ok``."""
+    if not ok:
+        raise ValueError(f"{key} must be {expected}, got {got!r}")

@@ -16,59 +16,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-FAMILIES = ("siren", "grid")
+from nct.method_conf import ModelConf
+
 HIDDEN_OMEGA = 30.0  # SIREN's frequency for hidden layers (Sitzmann et al.); its init compensates
-
-
-def require(ok: bool, key: str, expected: str, got: object) -> None:
-    """Raise ValueError naming the config ``key`` and what was ``expected`` unless ``ok``."""
-    if not ok:
-        raise ValueError(f"{key} must be {expected}, got {got!r}")
-
-
-@dataclass
-class ModelConf:
-    """The neural SDF field (config group ``model``).
-
-    name: the group option. family: "siren" (SIREN static net + SIREN coefficient net) or "grid"
-    (explicit grids, see ``GridField``).
-    width, depth: hidden width and number of hidden layers of the static net g_E (siren).
-    temporal_width, temporal_depth: the same for the coefficient net of g_V (siren).
-    resolution: cells per side of the finest static grid (grid); levels: grids per part, each
-    half the resolution of the one before, summed (grid). temporal_resolution: cells per side of
-    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse.
-    n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
-    f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
-        rotation (time is measured in rotations from the first view). Keep it well below 1: a
-        motion that turns with the gantry (1 cycle per rotation for a shift, m for an m-fold shape
-        change) leaves every view unchanged, so a basis reaching there makes the fit ambiguous.
-    omega0: SIREN frequency of the first layer (inputs are x scaled to [-1, 1]); low values give
-        smooth fields, which is what an SDF is.
-    """
-
-    name: str = "siren"
-    family: str = "siren"
-    width: int = 64
-    depth: int = 3
-    temporal_width: int = 64
-    temporal_depth: int = 3
-    n_terms: int = 32
-    f_max: float = 0.3
-    omega0: float = 10.0
-    resolution: int = 128
-    levels: int = 3
-    temporal_resolution: int = 32
-
-    def __post_init__(self) -> None:
-        require(self.family in FAMILIES, "model.family", f"one of {FAMILIES}", self.family)
-        for key in ("width", "depth", "temporal_width", "temporal_depth", "levels"):
-            require(getattr(self, key) >= 1, f"model.{key}", ">= 1", getattr(self, key))
-        require(self.n_terms >= 0, "model.n_terms", ">= 0", self.n_terms)
-        require(self.f_max >= 0, "model.f_max", ">= 0", self.f_max)
-        require(self.omega0 > 0, "model.omega0", "> 0", self.omega0)
-        for key in ("resolution", "temporal_resolution") if self.family == "grid" else ():
-            require(getattr(self, key) >= 2 ** self.levels, f"model.{key}", f">= 2**model.levels = {2 ** self.levels}",
-                    getattr(self, key))
 
 
 class Siren(nn.Module):

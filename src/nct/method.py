@@ -1,6 +1,6 @@
 """NeuralCT end to end (Algorithms 1-6 and refinement): a sinogram in, intensity frames out.
 
-Every n-th view (``trainer.heldout_every``) is held out of everything, FBP included, and scores
+Every n-th view (``heldout.every``) is held out of everything, FBP included, and scores
 the fit afterwards: a truth-free number for choosing settings. Time is measured in gantry
 rotations from the first view, derived from the views' angles and times.
 """
@@ -25,8 +25,8 @@ from nct.scanner import ImageGrid
 from nct.sdf import binarise, masks_to_sdf
 from nct.segment import segment
 from nct.sinogram import Sinogram
-from nct.stages import (LOGGERS, IndexDataModule, InitFit, LossConf, MinLossStop, SinogramFit, TrainerConf,
-                        Views, run_stage)
+from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.stages import LOGGERS, IndexDataModule, InitFit, MinLossStop, SinogramFit, Views, run_stage
 
 
 @dataclass
@@ -35,7 +35,7 @@ class NCTResult:
 
     frames: [F, H, W] float32 intensity sum_k a(k) zeta_k; sdf: [F, K, H, W] float32 (physical
     units, positive inside); intensities: [K] a(k) estimated from the data (Algorithm 1, then
-    fitted with the field when trainer.fit_intensities); heldout_loss: relative
+    fitted with the field when optim.fit_intensities); heldout_loss: relative
     sinogram L1 on the held-out views (NaN if none); stages: per stage {steps, losses,
     wall_time_s}; capacity: description of the model; init: how the first SDF frames were
     found (segment.py's route, background and object levels) and the units (normalise.py), in
@@ -94,21 +94,22 @@ class _Problem:
     rng: np.random.Generator
     log_dir: Path | None
     logger: str
+    trainer: TrainerConf
 
 
-def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], conf: TrainerConf,
-              targets: np.ndarray, amplitudes: torch.Tensor, stages: dict) -> SinogramFit:
+def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
+              render: RenderConf, targets: np.ndarray, amplitudes: torch.Tensor, stages: dict) -> SinogramFit:
     """One pass: InitFit to SDF ``targets`` then SinogramFit; records both stages in ``stages``."""
     init_steps, fit_steps = steps
     n_init = prob.init_times.shape[0]
-    init = InitFit(net, prob.grid, conf, prob.loss, torch.from_numpy(targets), prob.init_times)
+    init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times)
     stages[prefix + "init"] = run_stage(
-        init, IndexDataModule(np.arange(n_init), conf.batch_views, init_steps, _stream(prob.rng)),
-        init_steps, prefix + "init", conf, prob.log_dir, prob.logger)
-    fit = SinogramFit(net, prob.grid, conf, prob.loss, prob.views, amplitudes, fit_steps)
+        init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
+        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger)
+    fit = SinogramFit(net, prob.grid, optim, render, prob.loss, prob.views, amplitudes, fit_steps)
     stages[prefix + "fit"] = run_stage(
-        fit, IndexDataModule(prob.fit_views, conf.batch_views, fit_steps, _stream(prob.rng)),
-        fit_steps, prefix + "fit", conf, prob.log_dir, prob.logger, (MinLossStop(conf.min_loss),))
+        fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng)),
+        fit_steps, prefix + "fit", prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),))
     return fit
 
 
@@ -130,15 +131,22 @@ def reconstruct(
     fbp_window_deg: float = 180.0,
     n_objects: int = 1,
     capacity: CapacityConf | None = None,
+    optim: OptimConf | None = None,
+    render: RenderConf | None = None,
+    init: InitConf | None = None,
+    heldout: HeldoutConf | None = None,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
     The data are fitted in the method's units (normalise.py) and the frames, SDFs and
-    intensities returned in the data's.
-    With ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``)
-    and the refinement continues the chosen rung.
+    intensities returned in the data's. ``trainer``: Lightning's settings; ``optim``, ``render``,
+    ``init``, ``heldout``: the config groups of those names (their defaults when None). With
+    ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``) and the
+    refinement continues the chosen rung.
     """
     capacity = capacity or CapacityConf()
+    optim, render = optim or OptimConf(), render or RenderConf()
+    init, heldout = init or InitConf(), heldout or HeldoutConf()
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if logger not in LOGGERS:
@@ -146,10 +154,10 @@ def reconstruct(
     L.seed_everything(seed, verbose=False)
     rng = np.random.default_rng(seed)
     clock = rotations_since_start(sino)
-    fit_views, held_views = split_views(sino.n_views, trainer.heldout_every)
+    fit_views, held_views = split_views(sino.n_views, heldout.every)
     if capacity.auto and not len(held_views):
-        raise ValueError("capacity.auto needs held-out views: set trainer.heldout_every >= 2")
-    n_init = max(2, round(trainer.init_frames_per_rotation * float(clock(sino.times[-1]))))
+        raise ValueError("capacity.auto needs held-out views: set heldout.every >= 2")
+    n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
     init_times = sino.times[0] + (np.arange(n_init) + 0.5) * (np.ptp(sino.times) / n_init)
 
     # From here on, the method's units (normalise.py): FOV side 1, intensities about 1.
@@ -158,11 +166,11 @@ def reconstruct(
     fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp * (lengths.intensity / units.intensity), units.sinogram(sino)
-    seg = segment(fbp, n_objects, rng, trainer.kappa, trainer.gmm_share)
+    seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), float(sino.bin_spacing))
-    prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger)
+    prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer)
     amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
 
     stages: dict = {}
@@ -170,25 +178,25 @@ def reconstruct(
 
     def fit_rung(n_terms: int) -> Rung:
         net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
-        fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (trainer.init_steps, trainer.fit_steps),
-                        trainer, targets, amplitudes, stages)
+        fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
+                        optim, render, targets, amplitudes, stages)
         fitted[n_terms] = net, fit
         return Rung(n_terms, _heldout(prob, fit), net.describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
     net, fit = fitted[chosen.n_terms]
 
-    if trainer.refine:
+    if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
-        second = replace(trainer, lr=trainer.refine_lr, band_start_px=trainer.band_px)
         targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size)
-        fit = _fit_pass(prob, net, "refine_", (trainer.refine_init_steps, trainer.refine_fit_steps), second,
+        fit = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
+                        replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, fit.intensities.detach().cpu(), stages)
 
     amplitudes = fit.intensities.detach().cpu()
     sdf = field_frames(fit, clock(frame_times))
-    frames = intensity(torch.from_numpy(sdf), amplitudes, trainer.band_px * grid.pixel_size, trainer.mu).numpy()
+    frames = intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
     if capacity.auto:

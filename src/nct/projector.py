@@ -15,10 +15,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from nct.method_conf import FILTERS
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram
-
-FILTERS = ("ramp", "shepp-logan", "cosine", "hamming", "hann")
 
 # Backprojection works on chunks of views holding at most this many pixel samples (bounds memory).
 _CHUNK_SAMPLES = 2**22

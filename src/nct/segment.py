@@ -29,11 +29,11 @@ from skimage.filters import threshold_multiotsu
 from sklearn.mixture import GaussianMixture
 
 from nct.errors import NoObjectError
+from nct.method_conf import INIT_ROUTES
 
 SAME_LEVEL = 3.0
 NOISE_SIGMAS = 4.0  # foreground: this many noise deviations above the background ...
 MIN_CONTRAST = 0.05  # ... and at least this share of the brightest contrast (ripple of noiseless FBP)
-ROUTES = ("auto", "gmm", "otsu")
 
 
 @dataclass(frozen=True)
@@ -63,8 +63,8 @@ def segment(
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if kappa < 0:
         raise ValueError(f"kappa (buffer classes) must be >= 0, got {kappa}")
-    if route not in ROUTES:
-        raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
+    if route not in INIT_ROUTES:
+        raise ValueError(f"route must be one of {INIT_ROUTES}, got {route!r}")
     if not np.isfinite(frames).all():
         raise NoObjectError("the FBP frames hold NaN or inf: the sinogram cannot be segmented")
     levels = None

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 import warnings
 from collections.abc import Iterator
@@ -25,115 +24,12 @@ from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
-from nct.errors import DivergenceError
-from nct.fields import Field, require
+from nct.errors import DivergenceError, InputError
+from nct.fields import Field
+from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.progress import StageBar, log_stage, show_bar
 from nct.render import intensity, occupancy, project_frames
 from nct.scanner import ImageGrid
-
-LOGGERS = ("tensorboard", "csv", "none")
-
-
-@dataclass
-class LossConf:
-    """Loss weights (config group ``loss``).
-
-    The paper numbers its weights two ways: Algorithm 4 has lambda1 Eikonal, lambda2 TV space,
-    lambda3 TV time; Sections V-VI call TV space lambda1 and TV time lambda2. Here they are named.
-    eikonal: weight of mean | |grad_x g| - 1 | in SinogramFit (keeps g a distance, so a shift of
-        the boundary moves the whole field with it).
-    tv_space: weight of mean(|dg/dx| + |dg/dy|) (dimensionless).
-    tv_time: weight of mean |dg/dt|, g in field-of-view sides and t in gantry rotations.
-    init_eikonal: weight of the Eikonal term in InitFit (Algorithm 3's lambda).
-    The sinogram term is the L1 misfit relative to the data's mean |value|; InitFit's SDF term is
-    the L1 misfit in pixels.
-    """
-
-    name: str = "default"
-    eikonal: float = 1.0
-    tv_space: float = 0.0
-    tv_time: float = 0.0
-    init_eikonal: float = 0.1
-
-    def __post_init__(self) -> None:
-        for key in ("eikonal", "tv_space", "tv_time", "init_eikonal"):
-            require(getattr(self, key) >= 0, f"loss.{key}", ">= 0", getattr(self, key))
-
-
-@dataclass
-class TrainerConf:
-    """How the stages run (config group ``trainer``).
-
-    accelerator, devices: passed to Lightning. init_steps, fit_steps: steps of InitFit and
-    SinogramFit in the first pass. lr: Adam's rate, reached after warmup_steps, then multiplied
-    by lr_decay every lr_decay_every steps; the sinogram fit needs the decay: at a constant 1e-3
-    it wanders off even a start from the true SDF. refine: run the second pass (Algorithms 2-6
-    again) on the first pass's field, refine_init_steps and refine_fit_steps at refine_lr with
-    the final band. batch_views: views (timepoints) per step.
-    min_loss: stop SinogramFit once the sinogram loss is below (0: never).
-    fit_intensities: SinogramFit also fits a(k), from Algorithm 1's estimate, at intensity_lr
-    (Adam on log a): FBP of fast motion has no histogram peak at the object's level.
-    band_px: width in pixels of the occupancy ramp (see render.py); SinogramFit starts at
-    band_start_px and narrows geometrically to band_px over band_anneal of its steps, so that at
-    first a wide band of the boundary gets gradient. mu: the paper's occupancy slope.
-    k_samp: supersampling of the render. init_frames_per_rotation: SDF frames InitFit fits.
-    kappa, gmm_share: Algorithm 1's buffer classes and share of frames for the mixture.
-    heldout_every: every n-th view is held out of the fit and scores it (0: none).
-    divergence_factor: stop with DivergenceError once a loss exceeds this multiple of its start.
-    progress_bar: None shows it when stdout is a terminal. log_every_n_steps: scalars;
-    image_every_n_steps: frame and residual images in TensorBoard.
-    """
-
-    name: str = "cpu"
-    accelerator: str = "auto"
-    devices: int = 1
-    init_steps: int = 300
-    fit_steps: int = 1000
-    refine: bool = True
-    refine_init_steps: int = 100
-    refine_fit_steps: int = 300
-    refine_lr: float = 1e-4
-    lr: float = 1e-3
-    warmup_steps: int = 50
-    lr_decay: float = 0.65
-    lr_decay_every: int = 100
-    batch_views: int = 20
-    min_loss: float = 0.0
-    fit_intensities: bool = True
-    intensity_lr: float = 1e-2
-    band_px: float = 1.0
-    band_start_px: float = 4.0
-    band_anneal: float = 0.6
-    mu: float = 50.0
-    k_samp: int = 1
-    init_frames_per_rotation: int = 60
-    kappa: int = 3
-    gmm_share: float = 0.02
-    heldout_every: int = 10
-    divergence_factor: float = 20.0
-    progress_bar: bool | None = None
-    log_every_n_steps: int = 10
-    image_every_n_steps: int = 200
-
-    def __post_init__(self) -> None:
-        positive_ints = ("devices", "lr_decay_every", "batch_views", "k_samp", "init_frames_per_rotation",
-                         "log_every_n_steps", "image_every_n_steps")
-        for key in positive_ints:
-            require(getattr(self, key) >= 1, f"trainer.{key}", ">= 1", getattr(self, key))
-        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps",
-                    "min_loss", "kappa", "heldout_every"):
-            require(getattr(self, key) >= 0, f"trainer.{key}", ">= 0", getattr(self, key))
-        require(self.lr > 0, "trainer.lr", "> 0", self.lr)
-        require(self.refine_lr > 0, "trainer.refine_lr", "> 0", self.refine_lr)
-        require(self.intensity_lr > 0, "trainer.intensity_lr", "> 0", self.intensity_lr)
-        require(0 < self.lr_decay <= 1, "trainer.lr_decay", "in (0, 1]", self.lr_decay)
-        require(self.band_px > 0, "trainer.band_px", "> 0", self.band_px)
-        require(self.band_start_px >= self.band_px, "trainer.band_start_px", ">= trainer.band_px",
-                self.band_start_px)
-        require(0 <= self.band_anneal <= 1, "trainer.band_anneal", "in [0, 1]", self.band_anneal)
-        require(self.mu > 2, "trainer.mu", "> 2", self.mu)
-        require(0 < self.gmm_share <= 1, "trainer.gmm_share", "in (0, 1]", self.gmm_share)
-        require(self.divergence_factor > 1, "trainer.divergence_factor", "> 1", self.divergence_factor)
-
 
 @dataclass(frozen=True)
 class Views:
@@ -162,7 +58,7 @@ def eikonal_loss(gx: Tensor, gy: Tensor) -> Tensor:
     return ((gx.square() + gy.square() + 1e-12).sqrt() - 1).abs().mean()
 
 
-def band_at(step: int, steps: int, conf: TrainerConf) -> float:
+def band_at(step: int, steps: int, conf: RenderConf) -> float:
     """Occupancy ramp width in pixels at ``step`` of ``steps``: geometric from start to final."""
     span = conf.band_anneal * steps
     share = 1.0 if span <= 0 else min(1.0, step / span)
@@ -172,11 +68,11 @@ def band_at(step: int, steps: int, conf: TrainerConf) -> float:
 class FieldStage(L.LightningModule):
     """What both stages share: the field on the grid and Adam with warmup and step decay."""
 
-    def __init__(self, field: Field, grid: ImageGrid, conf: TrainerConf) -> None:
+    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf) -> None:
         super().__init__()
         self.field = field
         self.grid = grid
-        self.conf = conf
+        self.optim = optim
 
     def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
         """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt in FOV sides per rotation."""
@@ -186,11 +82,11 @@ class FieldStage(L.LightningModule):
         return self.field.sdf(c, times).reshape(shape), rate
 
     def param_groups(self) -> list[dict]:
-        """Adam's parameter groups: the field at trainer.lr."""
+        """Adam's parameter groups: the field at optim.lr."""
         return [{"params": list(self.field.parameters()), "name": "field"}]
 
     def configure_optimizers(self):
-        conf = self.conf
+        conf = self.optim
         opt = torch.optim.Adam(self.param_groups(), lr=conf.lr)
 
         def factor(step: int) -> float:
@@ -206,9 +102,9 @@ class InitFit(FieldStage):
     targets: [T, K, H, W] SDF frames (physical units) at ``times`` [T] in rotations.
     """
 
-    def __init__(self, field: Field, grid: ImageGrid, conf: TrainerConf, loss: LossConf,
+    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, loss: LossConf,
                  targets: Tensor, times: Tensor) -> None:
-        super().__init__(field, grid, conf)
+        super().__init__(field, grid, optim)
         self.loss_conf = loss
         self.register_buffer("targets", targets, persistent=False)
         self.register_buffer("times", times, persistent=False)
@@ -233,9 +129,10 @@ class SinogramFit(FieldStage):
     """Algorithm 4: render the field at each sampled view's time and angle, L1 to the data,
     plus eikonal, tv_space and tv_time terms; the occupancy band narrows as steps go."""
 
-    def __init__(self, field: Field, grid: ImageGrid, conf: TrainerConf, loss: LossConf,
+    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
                  views: Views, intensities: Tensor, steps: int) -> None:
-        super().__init__(field, grid, conf)
+        super().__init__(field, grid, optim)
+        self.render_conf = render
         self.loss_conf = loss
         self.steps = steps
         self.bin_spacing = views.bin_spacing
@@ -243,7 +140,7 @@ class SinogramFit(FieldStage):
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
         self.register_buffer("times", views.times, persistent=False)
-        self.log_intensities = torch.nn.Parameter(intensities.log(), requires_grad=conf.fit_intensities)
+        self.log_intensities = torch.nn.Parameter(intensities.log(), requires_grad=optim.fit_intensities)
 
     @property
     def intensities(self) -> Tensor:
@@ -252,18 +149,18 @@ class SinogramFit(FieldStage):
 
     def param_groups(self) -> list[dict]:
         groups = super().param_groups()
-        if self.conf.fit_intensities:
-            groups.append({"params": [self.log_intensities], "lr": self.conf.intensity_lr, "name": "intensities"})
+        if self.optim.fit_intensities:
+            groups.append({"params": [self.log_intensities], "lr": self.optim.intensity_lr, "name": "intensities"})
         return groups
 
     def band(self) -> float:
         """Current ramp width in physical units."""
-        return band_at(self.global_step, self.steps, self.conf) * self.grid.pixel_size
+        return band_at(self.global_step, self.steps, self.render_conf) * self.grid.pixel_size
 
     def render(self, sdf: Tensor, views: Tensor, band: float) -> Tensor:
         """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] at the angles of ``views`` [v]."""
         return project_frames(sdf, self.intensities, self.angles[views], self.grid.extent, self.values.shape[1],
-                              self.bin_spacing, band, self.conf.mu, self.conf.k_samp)
+                              self.bin_spacing, band, self.render_conf.mu, self.render_conf.k_samp)
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         band = self.band()
@@ -282,7 +179,7 @@ class SinogramFit(FieldStage):
     @torch.no_grad()
     def sinogram_loss(self, views: Tensor, chunk: int = 64) -> float:
         """Relative L1 misfit over ``views`` [v] with the final band (e.g. held-out views)."""
-        band = self.conf.band_px * self.grid.pixel_size
+        band = self.render_conf.band_px * self.grid.pixel_size
         total = 0.0
         for part in views.to(self.device).split(chunk):
             sdf, _ = self.grid_sdf(self.times[part])
@@ -294,7 +191,7 @@ class SinogramFit(FieldStage):
         """Intensity frames at n evenly spaced view times: [1, n, H, W]."""
         pick = torch.linspace(0, self.times.shape[0] - 1, n).round().long()
         sdf, _ = self.grid_sdf(self.times[pick])
-        return intensity(sdf, self.intensities, self.band(), self.conf.mu)[None]
+        return intensity(sdf, self.intensities, self.band(), self.render_conf.mu)[None]
 
     @torch.no_grad()
     def residual(self, n: int) -> Tensor:
@@ -356,7 +253,7 @@ class DivergenceCheck(Callback):
             raise DivergenceError(
                 f"stage '{self.stage}' diverged at step {trainer.global_step}: loss {loss:.4g} (first step "
                 f"{self.first:.4g}, limit {self.factor:g}x) at learning rate {lr:.3g}; "
-                "lower trainer.lr or raise trainer.warmup_steps"
+                "lower optim.lr or raise optim.warmup_steps"
             )
 
 
@@ -382,9 +279,13 @@ class ImageLog(Callback):
                              trainer.global_step)
 
 
-def show_progress(conf: TrainerConf) -> bool:
-    """The progress bar setting: on when asked, or when stdout is a terminal."""
-    return sys.stdout.isatty() if conf.progress_bar is None else bool(conf.progress_bar)
+def check_accelerator(accelerator: str) -> None:
+    """Refuse a GPU accelerator that torch cannot use, naming the fix (Lightning would fail deep inside)."""
+    if accelerator in ("gpu", "cuda") and not (torch.cuda.is_available() or torch.backends.mps.is_available()):
+        build = "a CPU-only build" if torch.version.cuda is None else "a CUDA build but sees no GPU"
+        raise InputError(f"trainer.accelerator={accelerator}: torch {torch.__version__} is {build}; install a CUDA "
+                         "build of torch (https://pytorch.org/get-started/locally/) on a machine with an NVIDIA GPU, "
+                         "or use trainer=cpu")
 
 
 @contextmanager
@@ -406,13 +307,17 @@ def quiet_lightning() -> Iterator[None]:
 def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, conf: TrainerConf,
               log_dir: Path | None, logger: str, extra_callbacks: tuple[Callback, ...] = ()) -> dict:
     """Fit ``module`` for ``steps`` in a fresh Trainer with its own logger version and checkpoint
-    folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time."""
+    folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time.
+    ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``."""
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+    check_accelerator(conf.accelerator)
     start = time.perf_counter()
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
-    callbacks: list[Callback] = [DivergenceCheck(name, conf.divergence_factor), *extra_callbacks]
+    callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
+    bar = show_bar(conf.progress_bar)
+    callbacks += [StageBar(name)] if bar else []
     stage_logger: TensorBoardLogger | CSVLogger | bool = False
     if log_dir is not None and logger == "tensorboard":
         stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
@@ -424,12 +329,15 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
         trainer = L.Trainer(
             accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
             logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
-            enable_progress_bar=show_progress(conf), enable_model_summary=False,
-            log_every_n_steps=conf.log_every_n_steps, num_sanity_val_steps=0, limit_val_batches=0,
+            enable_progress_bar=bar, enable_model_summary=False,
+            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0, limit_val_batches=0,
         )
         trainer.fit(module, datamodule=data)
         if log_dir is not None:
             trainer.save_checkpoint(Path(log_dir) / "checkpoints" / name / "last.ckpt")
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith("train/")}
-    return {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    if not bar:
+        log_stage(name, result)
+    return result

@@ -1,0 +1,87 @@
+"""The ``nct`` command in-process: configuration errors are one line with exit code 2, a missing
+GPU or optional extra names its fix, and ``--help`` lists only the groups users pick."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import pytest
+import torch
+from hydra.core.global_hydra import GlobalHydra
+
+from nct import cli
+from nct.errors import InputError
+from nct.stages import check_accelerator
+
+QUICK = ["debug=tiny", "logger=none", "method=fbp"]
+
+
+@pytest.fixture
+def nct(tmp_path, monkeypatch, capsys):
+    """Run ``nct ARGS`` in-process in ``tmp_path``; return (exit code, stdout, stderr)."""
+    monkeypatch.chdir(tmp_path)
+
+    def call(*args: str) -> tuple[int, str, str]:
+        monkeypatch.setattr(sys, "argv", ["nct", *args])
+        GlobalHydra.instance().clear()
+        try:
+            cli.main()
+            code = 0
+        except SystemExit as done:
+            code = done.code
+        finally:
+            GlobalHydra.instance().clear()
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return call
+
+
+@pytest.mark.parametrize("args, message", [
+    (["+phantom.displacment_deg=50"], "unknown key phantom.displacment_deg: not a setting of phantom (CircleConf); "
+                                      "did you mean phantom.displacement_deg?"),
+    (["phantom.displacment_deg=50"], "unknown key phantom.displacment_deg: not a setting of phantom (CircleConf); "
+                                     "did you mean phantom.displacement_deg?"),
+    (["+export.gifs=false"], "unknown key export.gifs: not a setting of export (ExportConf); did you mean export.gif?"),
+    (["+optim.learning_rate=1"], "unknown key optim.learning_rate: not a setting of optim (OptimConf); its keys: "
+                                 "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
+                                 "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
+                                 "intensity_lr, divergence_factor"),
+    (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
+                                       "'str' could not be converted to Float (key: phantom.displacement_deg)"),
+    (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
+                          "composed, heart, letters, static"),
+    (["optim.lr=0"], "optim.lr must be > 0, got 0.0"),
+])
+def test_config_errors_are_one_line_with_exit_code_2(nct, args, message):
+    code, _, err = nct(*QUICK, *args)
+    assert (code, err) == (2, f"nct: error: {message}\n")
+
+
+def test_missing_optuna_extra_names_the_install_command(nct):
+    if importlib.util.find_spec("hydra_plugins.hydra_optuna_sweeper"):
+        pytest.skip("the optuna extra is installed here")
+    code, _, err = nct("hparams_search=tv_fmax")
+    assert code == 2 and err.count("\n") == 1
+    assert err.startswith("nct: error: Hydra's optuna sweeper plugin is not installed: pip install '.[optuna]'")
+
+
+def test_gpu_without_cuda_names_the_fix(nct, monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    monkeypatch.setattr(torch.backends.mps, "is_available", lambda: False)
+    with pytest.raises(InputError, match="install a CUDA build of torch .*, or use trainer=cpu$"):
+        check_accelerator("gpu")
+    check_accelerator("cpu")
+    code, _, err = nct("debug=tiny", "logger=none", "trainer=gpu")
+    assert code == 2 and err.count("\n") == 1 and err.startswith("nct: error: trainer.accelerator=gpu: torch ")
+
+
+def test_help_lists_only_the_groups_users_pick(nct):
+    code, out, _ = nct("--help")
+    groups = out.split("== Configuration groups ==")[1].split("== Config ==")[0]
+    names = {line.split(":")[0] for line in groups.splitlines()[2:] if ":" in line}
+    assert code == 0 and names == {"capacity", "data", "debug", "experiment", "fbp", "heldout", "hparams_search",
+                                   "image", "init", "logger", "loss", "model", "optim", "phantom", "render",
+                                   "scanner", "sweep", "trainer"}
+    assert "sweep: displacement, displacement_quick, fmax, fmax_quick, lambda_grid, lambda_grid_quick" in groups

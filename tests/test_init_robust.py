@@ -1,0 +1,66 @@
+"""Every scene gets an initialisation: small, faint (noisy), fast, adjacent and nested objects
+run end to end on tiny sizes without a crash and find their objects (issue 9, item 2)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nct.fields import ModelConf
+from nct.method import reconstruct
+from nct.metrics import dice
+from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
+from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
+
+GRID = ImageGrid(40)
+MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
+INIT = InitConf(frames_per_rotation=12)
+
+
+def orbit(radius: float, orbit_radius: float, deg: float, intensity: float) -> EllipseConf:
+    """A disc on a circular orbit about the centre, ``deg`` of arc per rotation."""
+    c = deg / 360
+    return EllipseConf(x=Signal(amplitude=orbit_radius, cycles_per_rotation=c, phase_deg=90.0),
+                       y=Signal(amplitude=orbit_radius, cycles_per_rotation=c),
+                       a=Signal(radius), b=Signal(radius), intensity=Signal(intensity))
+
+
+def still(x: float, y: float, a: float, b: float, intensity: float) -> EllipseConf:
+    return EllipseConf(x=Signal(x), y=Signal(y), a=Signal(a), b=Signal(b), intensity=Signal(intensity))
+
+
+SCENES = {  # objects, Poisson I0 (None: noiseless)
+    "small": ([orbit(0.05, 0.2, 60.0, 1.0)], None),
+    "small_noisy": ([orbit(0.05, 0.2, 60.0, 1.0)], 1e4),
+    "small_fast": ([orbit(0.05, 0.2, 150.0, 1.0)], None),  # Algorithm 1 alone crashed here
+    "small_fast_noisy": ([orbit(0.05, 0.2, 200.0, 1.0)], 1e4),
+    "faint_noisy": ([orbit(0.12, 0.2, 100.0, 0.2)], 1e4),
+    "adjacent": ([still(-0.1, 0.0, 0.1, 0.1, 1.0), orbit(0.08, 0.22, 60.0, 0.8)], None),
+    "nested": ([still(0.0, 0.0, 0.38, 0.3, 0.5), orbit(0.06, 0.15, 100.0, 1.0)], None),
+    "beside_static": ([orbit(0.1, 0.25, 100.0, 1.0), still(-0.2, -0.1, 0.12, 0.12, 0.5)], None),
+}
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_every_scene_gets_an_initialisation(name):
+    objects, i0 = SCENES[name]
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, GRID, times, i0, np.random.default_rng(0))
+    result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+                         n_objects=len(objects), optim=OPTIM, init=INIT)
+    assert np.isfinite(result.frames).all() and result.frames.shape == (6, 40, 40)
+    assert result.init["route"] in ("gmm", "otsu") and len(result.init["levels"]) == len(objects)
+    assert all(a > 0 for a in result.intensities)
+    if "fast" in name:
+        return  # no crash is the bar here; a small object this fast is not recovered yet (issue 9 item 3)
+    # Found where the objects are (a short fit need not reach their intensities yet): the
+    # occupied pixels overlap the truth's objects.
+    occupied = result.frames >= 0.5 * min(result.intensities)
+    overlap = np.median(dice(occupied, sino.truth.frames >= sino.truth.level))
+    assert overlap > 0.4, overlap
