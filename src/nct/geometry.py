@@ -70,6 +70,14 @@ class Geometry(ABC):
         the ray is the line {σ·e(φ) + t·d(φ)}.
         """
 
+    @abstractmethod
+    def locate(self, phi: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Inverse of `lines`: the view angle θ and detector coordinate u that measure the line (φ, σ).
+
+        phi, sigma: numpy arrays of one shape -> (θ, u) of that shape. The same line is also
+        (φ ± π, −σ), which ``locate`` answers with the view half a turn away.
+        """
+
     def rays(self, angles, u=None):
         """A point on every ray and its unit direction: ([V, B, 2], [V, B, 2]) as (x, y).
 
@@ -102,6 +110,9 @@ class ParallelGeometry(Geometry):
 
     def lines(self, angles, u):
         return angles[:, None], u[None, :]
+
+    def locate(self, phi: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return phi, sigma
 
     def keys(self) -> dict[str, float | str]:
         return {"bin_spacing": self.bin_spacing, "detector_offset": self.detector_offset}
@@ -154,6 +165,11 @@ class FanGeometry(Geometry):
     def lines(self, angles, u):
         gamma = self.fan_angle(u)
         return angles[:, None] - gamma[None, :], (self.source_distance * _namespace(u).sin(gamma))[None, :]
+
+    def locate(self, phi: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As `Geometry.locate`, for lines closer to the axis than the source (|σ| < source_distance)."""
+        gamma = np.arcsin(sigma / self.source_distance)
+        return phi + gamma, self.detector_coordinate(gamma)
 
     def keys(self) -> dict[str, float | str]:
         return {"bin_spacing": self.bin_spacing, "detector_offset": self.detector_offset,

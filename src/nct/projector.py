@@ -17,6 +17,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nct.geometry import FanGeometry, Geometry, ParallelGeometry
+from nct.rebin import to_parallel
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram
 
@@ -253,11 +254,13 @@ def fbp_frames(
 ) -> np.ndarray:
     """FBP at each time from the views spanning ``window_deg`` centred on the nearest view: [F, H, W] f32.
 
+    Any geometry: ``sino`` is first rebinned onto centred parallel rays (``rebin.to_parallel``).
     Windows are clamped inside the acquisition. Every view is filtered and backprojected once; a
     window is the difference of two running sums over views.
     """
     if not 0 < window_deg <= 360:
         raise ValueError(f"fbp.window_deg must be in (0, 360], got {window_deg}")
+    sino = to_parallel(sino)
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1 or not np.all(np.isfinite(times)):
         raise ValueError(f"times must be a finite 1-D array, got shape {times.shape}")
