@@ -51,13 +51,14 @@ class Projector(nn.Module):
                 f"source_distance must exceed the image's half-diagonal {half * math.sqrt(2):.4g}"
                 f" (the source must lie outside the field of view), got {geometry.source_distance}"
             )
-        self.geometry = geometry
-        self.half = half
+        self.n_bins = geometry.n_bins
+        # Rays in grid_sample's units (half the image side is 1), computed in the images' dtype.
+        self.unit_geometry = geometry.scaled(1 / half)
         self.bin_samples = bin_samples
         self.step = float(ray_step) if ray_step is not None else extent / size
         sub = (torch.arange(bin_samples, dtype=torch.float64) + 0.5) / bin_samples - 0.5
         centres = torch.from_numpy(geometry.bin_positions)
-        self.register_buffer("u", (centres[:, None] + sub[None, :] * geometry.bin_spacing).reshape(-1))
+        self.register_buffer("u_norm", (centres[:, None] + sub[None, :] * geometry.bin_spacing).reshape(-1) / half)
         # Rays cross at most the square's diagonal, plus the half pixel that bilinear sampling reaches.
         reach = half * math.sqrt(2) + extent / size
         n_t = math.ceil(2 * reach / self.step) + 1
@@ -72,18 +73,17 @@ class Projector(nn.Module):
             raise ValueError(
                 f"angles must be [B] matching images [B,H,W], got {tuple(angles.shape)} for {tuple(images.shape)}"
             )
-        u = self.u.to(images.device)
-        point, direction = self.geometry.rays(angles.to(u), u)
-        point, direction = (point / self.half).to(images), direction.to(images)
+        point, direction = self.unit_geometry.rays(angles.to(images), self.u_norm.to(images))
         # Sample p + t v along every ray; grid_sample's y runs down the rows.
-        grid = torch.addcmul(point[:, :, None, :], self.t_norm.to(images)[:, None], direction[:, :, None, :])
+        grid = self.t_norm.to(images)[:, None] * direction[:, :, None, :]
+        grid += point[:, :, None, :]
         grid[..., 1].neg_()
         n_views, n_rays, n_t = grid.shape[:3]
         if images.ndim == 2:
             samples = F.grid_sample(images[None, None], grid.reshape(1, n_views * n_rays, n_t, 2), align_corners=False)
         else:
             samples = F.grid_sample(images[:, None], grid, align_corners=False)
-        sums = samples.reshape(n_views, self.geometry.n_bins, self.bin_samples, n_t).sum(dim=-1)
+        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_t).sum(dim=-1)
         return sums.mean(dim=-1) * self.step
 
 
