@@ -134,3 +134,16 @@ def test_ellipse_list_is_off_centre():
     # The chord tests above would miss a mirrored convention for a centred, symmetric scene.
     assert all(abs(cx) + abs(cy) > 0.05 for cx, cy, *_ in ELLIPSES)
     assert ellipse_chords(np.zeros((1, 2)), np.array([[0.0, 1.0]]), ELLIPSES).shape == (1,)
+
+
+def test_subsets_and_unit_changes_keep_the_geometry():
+    from nct.method import subset
+    from nct.normalise import Units
+    from nct.sinogram import Sinogram
+
+    geometry = GEOMETRIES["fan-curved-offset"]
+    sino = Sinogram(np.ones((4, geometry.n_bins), np.float32), np.arange(4.0), np.arange(4.0), **geometry.keys())
+    assert subset(sino, np.array([0, 2])).geometry == geometry
+    halved = Units(2.0).sinogram(sino).geometry
+    assert halved == FanGeometry(144, 0.00625, 1.0, 0.5, "curved", -0.05)
+    assert geometry.scaled(0.5) == halved

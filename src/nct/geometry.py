@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
@@ -61,6 +61,16 @@ class Geometry(ABC):
     def bin_edges(self) -> np.ndarray:
         """Detector coordinates of the bins' edges: [n_bins + 1] float64."""
         return np.append(self.bin_positions, self.bin_positions[-1] + self.bin_spacing) - self.bin_spacing / 2
+
+    @property
+    def field_radius(self) -> float:
+        """Radius of the disc about the axis that a full turn of views covers: the largest ray offset |σ|."""
+        _, sigma = self.lines(np.zeros(1), self.bin_edges)
+        return float(np.abs(sigma).max())
+
+    def scaled(self, factor: float) -> "Geometry":
+        """The same geometry with every length multiplied by ``factor`` (a change of units)."""
+        return replace(self, **{k: v * factor for k, v in self.keys().items() if not isinstance(v, str)})
 
     @abstractmethod
     def lines(self, angles, u):

@@ -71,8 +71,7 @@ def split_views(n_views: int, every: int) -> tuple[np.ndarray, np.ndarray]:
 
 def subset(sino: Sinogram, views: np.ndarray) -> Sinogram:
     """The given views of ``sino``, without its truth."""
-    return Sinogram(values=sino.values[views], angles=sino.angles[views], times=sino.times[views],
-                    bin_spacing=sino.bin_spacing, source_distance=sino.source_distance)
+    return replace(sino, values=sino.values[views], angles=sino.angles[views], times=sino.times[views], truth=None)
 
 
 @torch.no_grad()

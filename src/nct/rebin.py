@@ -24,9 +24,7 @@ def parallel_geometry_for(geometry: Geometry) -> ParallelGeometry:
     """The centred parallel detector that rebinning fills: the pitch of ``geometry``'s rays at the axis,
     wide enough for every ray it measures."""
     spacing = geometry.bin_spacing / geometry.magnification if isinstance(geometry, FanGeometry) else geometry.bin_spacing
-    _, sigma = geometry.lines(np.zeros(1), geometry.bin_edges)
-    reach = float(np.abs(sigma).max())
-    return ParallelGeometry(2 * math.ceil(reach / spacing), spacing)
+    return ParallelGeometry(2 * math.ceil(geometry.field_radius / spacing), spacing)
 
 
 def to_parallel(sino: Sinogram) -> Sinogram:
