@@ -160,7 +160,7 @@ def reconstruct(
     seg = segment(fbp, n_objects, rng, trainer.kappa, trainer.gmm_share)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
-                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), float(sino.bin_spacing))
+                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger)
     amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
 

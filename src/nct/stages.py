@@ -27,6 +27,7 @@ from torch.utils.data import DataLoader, IterableDataset
 
 from nct.errors import DivergenceError
 from nct.fields import Field, require
+from nct.geometry import Geometry
 from nct.render import intensity, occupancy, project_frames
 from nct.scanner import ImageGrid
 
@@ -137,12 +138,12 @@ class TrainerConf:
 
 @dataclass(frozen=True)
 class Views:
-    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations."""
+    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry."""
 
     values: Tensor
     angles: Tensor
     times: Tensor
-    bin_spacing: float
+    geometry: Geometry
 
     @property
     def scale(self) -> float:
@@ -238,7 +239,7 @@ class SinogramFit(FieldStage):
         super().__init__(field, grid, conf)
         self.loss_conf = loss
         self.steps = steps
-        self.bin_spacing = views.bin_spacing
+        self.geometry = views.geometry
         self.scale = views.scale
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
@@ -262,8 +263,8 @@ class SinogramFit(FieldStage):
 
     def render(self, sdf: Tensor, views: Tensor, band: float) -> Tensor:
         """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] at the angles of ``views`` [v]."""
-        return project_frames(sdf, self.intensities, self.angles[views], self.grid.extent, self.values.shape[1],
-                              self.bin_spacing, band, self.conf.mu, self.conf.k_samp)
+        return project_frames(sdf, self.intensities, self.angles[views], self.geometry, self.grid.extent, band,
+                              self.conf.mu, self.conf.k_samp)
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         band = self.band()
