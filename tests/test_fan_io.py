@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from geometry_cases import GEOMETRIES, closed_form_sinogram
@@ -9,6 +11,10 @@ from geometry_cases import GEOMETRIES, closed_form_sinogram
 from nct.errors import InputError
 from nct.geometry import ParallelGeometry
 from nct.io import load_sinogram, save_sinogram
+from nct.phantoms import StaticConf, build_phantom
+from nct.pipeline import run_job
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
 from nct.sinogram import Sinogram
 
 
@@ -59,3 +65,15 @@ def test_bad_geometry_keys_end_with_one_line_naming_the_key(tmp_path, geometry, 
     with pytest.raises(InputError, match=message) as caught:
         load_sinogram(tmp_path / "s.npz")
     assert "\n" not in str(caught.value)
+
+
+def test_fan_beam_file_runs_through_the_pipeline(tiny_cfg, run_dir, tmp_path):
+    geometry = GEOMETRIES["fan-flat-offset"]
+    scanner = Scanner(360, 1.0, 0.25, **{"n_bins": geometry.n_bins, **geometry.keys()})
+    phantom = build_phantom(StaticConf(), scanner.rotation_time)
+    sino = simulate(phantom, scanner, ImageGrid(64), np.array([0.125]), None, np.random.default_rng(0))
+    save_sinogram(tmp_path / "fan.npz", sino)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'fan.npz'}", "fbp.window_deg=360",
+                     "logger=none", "export.gif=false", "export.tiff=false"), run_dir)
+    assert json.loads((run_dir / "metrics.json").read_text())["fbp"]["median_dice"] >= 0.98
+    assert load_sinogram(run_dir / "sinogram.npz").geometry == geometry
