@@ -57,7 +57,8 @@ def ellipse_chords(points: np.ndarray, directions: np.ndarray, ellipses) -> np.n
         c, s = np.cos(phi), np.sin(phi)
         qx, qy = points[..., 0] - cx, points[..., 1] - cy
         q = ((qx * c + qy * s) / a, (-qx * s + qy * c) / b)
-        w = ((directions[..., 0] * c + directions[..., 1] * s) / a, (-directions[..., 0] * s + directions[..., 1] * c) / b)
+        vx, vy = directions[..., 0], directions[..., 1]
+        w = ((vx * c + vy * s) / a, (-vx * s + vy * c) / b)
         A = w[0] ** 2 + w[1] ** 2
         B = 2 * (q[0] * w[0] + q[1] * w[1])
         C = q[0] ** 2 + q[1] ** 2 - 1

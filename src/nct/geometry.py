@@ -28,6 +28,7 @@ import numpy as np
 import torch
 
 DETECTOR_SHAPES = ("flat", "curved")
+Array = np.ndarray | torch.Tensor  # the ray functions take and give either kind
 
 
 def _namespace(a):
@@ -63,6 +64,11 @@ class Geometry(ABC):
         return np.append(self.bin_positions, self.bin_positions[-1] + self.bin_spacing) - self.bin_spacing / 2
 
     @property
+    def magnification(self) -> float:
+        """Detector coordinate per unit of ray offset σ at the centre of the detector (1 in parallel beam)."""
+        return 1.0
+
+    @property
     def field_radius(self) -> float:
         """Radius of the disc about the axis that a full turn of views covers: the largest ray offset |σ|."""
         _, sigma = self.lines(np.zeros(1), self.bin_edges)
@@ -73,7 +79,7 @@ class Geometry(ABC):
         return replace(self, **{k: v * factor for k, v in self.keys().items() if not isinstance(v, str)})
 
     @abstractmethod
-    def lines(self, angles, u):
+    def lines(self, angles: Array, u: Array) -> tuple[Array, Array]:
         """Normal form (φ, σ) of the ray at detector coordinate u in the view at angle θ.
 
         angles [V] (rad), u [B] (numpy or torch, same kind) -> (φ, σ), each broadcastable to [V, B]:
@@ -88,7 +94,7 @@ class Geometry(ABC):
         (φ ± π, −σ), which ``locate`` answers with the view half a turn away.
         """
 
-    def rays(self, angles, u=None):
+    def rays(self, angles: Array, u: Array | None = None) -> tuple[Array, Array]:
         """A point on every ray and its unit direction: ([V, B, 2], [V, B, 2]) as (x, y).
 
         The point is the ray's closest approach to the rotation axis; ``u`` [B] defaults to the
@@ -118,7 +124,7 @@ class ParallelGeometry(Geometry):
     def __post_init__(self) -> None:
         self._check_detector()
 
-    def lines(self, angles, u):
+    def lines(self, angles: Array, u: Array) -> tuple[Array, Array]:
         return angles[:, None], u[None, :]
 
     def locate(self, phi: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -159,20 +165,19 @@ class FanGeometry(Geometry):
 
     @property
     def magnification(self) -> float:
-        """Detector coordinate per unit of ray offset σ at the centre of the fan."""
         return self.source_to_detector / self.source_distance
 
-    def fan_angle(self, u):
+    def fan_angle(self, u: Array) -> Array:
         """Fan angle γ of the ray at detector coordinate u: [B] -> [B] rad (numpy or torch)."""
-        xp = _namespace(u)
-        return xp.arctan(u / self.source_to_detector) if self.detector_shape == "flat" else u / self.source_to_detector
+        ratio = u / self.source_to_detector
+        return _namespace(u).arctan(ratio) if self.detector_shape == "flat" else ratio
 
-    def detector_coordinate(self, gamma):
+    def detector_coordinate(self, gamma: Array) -> Array:
         """Inverse of `fan_angle`: the detector coordinate u of fan angle γ, [B] -> [B]."""
-        xp = _namespace(gamma)
-        return xp.tan(gamma) * self.source_to_detector if self.detector_shape == "flat" else gamma * self.source_to_detector
+        flat = self.detector_shape == "flat"
+        return (_namespace(gamma).tan(gamma) if flat else gamma) * self.source_to_detector
 
-    def lines(self, angles, u):
+    def lines(self, angles: Array, u: Array) -> tuple[Array, Array]:
         gamma = self.fan_angle(u)
         return angles[:, None] - gamma[None, :], (self.source_distance * _namespace(u).sin(gamma))[None, :]
 

@@ -446,7 +446,8 @@ class LetterPhantom(Phantom):
         """Pixel-driven: each occupied fine pixel's mass goes to sub-bins (``PROJECT_REFINE`` per
         bin) by linear interpolation of s = x cos θ + y sin θ; sub-bins are averaged per bin."""
         if not isinstance(scanner.geometry, ParallelGeometry):
-            raise ValueError("phantom=letters is simulated in parallel beam only (scanner.source_distance must be unset)")
+            raise ValueError("phantom=letters is simulated in parallel beam only "
+                             "(scanner.source_distance must be unset)")
         fine = grid.refined(PROJECT_REFINE)
         sdfs = self._sdfs(fine.size)
         x, y = (c.ravel() for c in fine.xy())

@@ -16,14 +16,14 @@ import math
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from nct.geometry import FanGeometry, Geometry, ParallelGeometry
+from nct.geometry import Geometry, ParallelGeometry
 from nct.sinogram import Sinogram
 
 
 def parallel_geometry_for(geometry: Geometry) -> ParallelGeometry:
     """The centred parallel detector that rebinning fills: the pitch of ``geometry``'s rays at the axis,
     wide enough for every ray it measures."""
-    spacing = geometry.bin_spacing / geometry.magnification if isinstance(geometry, FanGeometry) else geometry.bin_spacing
+    spacing = geometry.bin_spacing / geometry.magnification
     return ParallelGeometry(2 * math.ceil(geometry.field_radius / spacing), spacing)
 
 
@@ -40,7 +40,8 @@ def to_parallel(sino: Sinogram) -> Sinogram:
     theta = _monotonic(np.unwrap(np.asarray(sino.angles, dtype=np.float64)))
     order = np.argsort(theta)
     phi, sigma = np.broadcast_arrays(*target.lines(theta, target.bin_positions))
-    candidates = [geometry.locate(phi, sigma), geometry.locate(phi + math.pi, -sigma), geometry.locate(phi - math.pi, -sigma)]
+    candidates = [geometry.locate(phi, sigma), geometry.locate(phi + math.pi, -sigma),
+                  geometry.locate(phi - math.pi, -sigma)]
     views = np.stack([c[0] for c in candidates])
     u = np.stack([c[1] for c in candidates])
     outside = np.maximum(theta.min() - views, views - theta.max()).clip(min=0)
