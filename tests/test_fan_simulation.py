@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 from geometry_cases import GEOMETRIES, closed_form_sinogram, rel_l2
 
 from nct.phantoms import CircleConf, LettersConf, StaticConf, build_phantom
+from nct.projector import project
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
 
@@ -41,7 +43,17 @@ def test_simulated_sinogram_carries_the_geometry():
     np.testing.assert_array_equal(sino.angles, scanner.angles)
 
 
-def test_letters_refuse_fan_beam():
-    scanner = scanner_for(GEOMETRIES["fan-flat"])
-    with pytest.raises(ValueError, match="parallel beam only"):
-        build_phantom(LettersConf(), scanner.rotation_time).project(scanner, ImageGrid(32))
+@pytest.mark.parametrize("geometry", GEOMETRIES.values(), ids=GEOMETRIES.keys())
+def test_letters_project_along_the_geometry_rays(geometry):
+    # Pixel-driven simulation against the ray-driven projector on a finer raster of the same instant.
+    scanner = scanner_for(geometry, views_per_rotation=6)
+    phantom = build_phantom(LettersConf(sequence="AB", rotations=1.0), scanner.rotation_time)
+    got = phantom.project(scanner, ImageGrid(96))
+    fine = ImageGrid(192)
+    reference = np.concatenate([
+        project(torch.from_numpy(phantom.image(float(t), fine, supersample=2)).double(),
+                torch.tensor([theta]), geometry, 1.0, bin_samples=4).numpy()
+        for theta, t in zip(scanner.angles, scanner.times)
+    ])
+    # Measured: 0.15 % (parallel), 0.29 % (fan); 2.5 % when the width of detector that sees a point is wrong.
+    assert rel_l2(got, reference) < 0.005

@@ -73,6 +73,8 @@ def test_blob_lands_where_the_convention_projects_it(geometry):
             d, d_total = geometry.source_distance, geometry.source_distance + geometry.detector_distance
             flat = geometry.detector_shape == "flat"
             expected = d_total * s / (d + r) if flat else d_total * math.atan(s / (d + r))
+        u, _ = geometry.project_points(np.array([x0]), np.array([y0]), np.array([theta]))
+        assert float(u[0, 0]) == pytest.approx(expected, abs=1e-12)
         profile = project(torch.tensor(blob), torch.tensor([theta]), geometry, 1.0).numpy()[0]
         centroid = (detector_u(geometry) * profile).sum() / profile.sum()
         assert centroid == pytest.approx(expected, abs=0.02 * geometry.bin_spacing)

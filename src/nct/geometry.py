@@ -94,6 +94,22 @@ class Geometry(ABC):
         (φ ± π, −σ), which ``locate`` answers with the view half a turn away.
         """
 
+    def project_points(self, x: np.ndarray, y: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where each point lands in each view, and how wide the detector sees it: x, y [P], angles [V]
+        -> (u, scale), each [V, P].
+
+        u: the detector coordinate (the convention's projection formula). scale: detector length per
+        unit length across the ray at the point (parallel 1; fan: du/dγ over the distance from the
+        source), so a point mass m adds m·scale/Δu to the mean line integral of a bin Δu wide holding u.
+        """
+        s = np.cos(angles)[:, None] * x[None, :] + np.sin(angles)[:, None] * y[None, :]
+        r = -np.sin(angles)[:, None] * x[None, :] + np.cos(angles)[:, None] * y[None, :]
+        return self._project(s, r)
+
+    @abstractmethod
+    def _project(self, s: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`project_points` of points at s along e and r along d of their view."""
+
     def rays(self, angles: Array, u: Array | None = None) -> tuple[Array, Array]:
         """A point on every ray and its unit direction: ([V, B, 2], [V, B, 2]) as (x, y).
 
@@ -129,6 +145,9 @@ class ParallelGeometry(Geometry):
 
     def locate(self, phi: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return phi, sigma
+
+    def _project(self, s: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return s, np.ones_like(s)
 
     def keys(self) -> dict[str, float | str]:
         return {"bin_spacing": self.bin_spacing, "detector_offset": self.detector_offset}
@@ -185,6 +204,12 @@ class FanGeometry(Geometry):
         """As `Geometry.locate`, for lines closer to the axis than the source (|σ| < source_distance)."""
         gamma = np.arcsin(sigma / self.source_distance)
         return phi + gamma, self.detector_coordinate(gamma)
+
+    def _project(self, s: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        along = self.source_distance + r
+        gamma = np.arctan2(s, along)
+        per_radian = self.source_to_detector / (np.cos(gamma) ** 2 if self.detector_shape == "flat" else 1.0)
+        return self.detector_coordinate(gamma), per_radian / np.hypot(s, along)
 
     def keys(self) -> dict[str, float | str]:
         return {"bin_spacing": self.bin_spacing, "detector_offset": self.detector_offset,

@@ -5,9 +5,10 @@ per gantry rotation; a built `Phantom` scales by ``grid.extent`` when asked for 
 Each config dataclass doubles as the Hydra schema of its ``phantom`` group option.
 
 Detector model (all scenes): a bin's value is the mean line integral over the bin's width (box
-aperture), every view at its own instant. Ellipses use the exact integral of their closed-form
-chord length along the scanner geometry's rays (parallel or fan beam); other scenes are
-rasterised 4x finer than the grid and projected pixel-driven (parallel beam only, for now).
+aperture), every view at its own instant; in fan beam the bin is the strip of lines at its
+centre ray's angle across the ray offsets of its edges. Ellipses use the exact integral of their
+closed-form chord length along the scanner geometry's rays (parallel or fan beam); other scenes
+are rasterised 4x finer than the grid and projected pixel-driven.
 """
 
 from __future__ import annotations
@@ -24,7 +25,6 @@ from matplotlib.path import Path
 from matplotlib.textpath import TextPath
 from scipy.ndimage import distance_transform_edt
 
-from nct.geometry import ParallelGeometry
 from nct.scanner import ImageGrid, Scanner
 
 FOV_RADIUS = 0.5  # inscribed circle of the unit field of view: objects must stay inside
@@ -444,26 +444,26 @@ class LetterPhantom(Phantom):
 
     def project(self, scanner: Scanner, grid: ImageGrid) -> np.ndarray:
         """Pixel-driven: each occupied fine pixel's mass goes to sub-bins (``PROJECT_REFINE`` per
-        bin) by linear interpolation of s = x cos θ + y sin θ; sub-bins are averaged per bin."""
-        if not isinstance(scanner.geometry, ParallelGeometry):
-            raise ValueError("phantom=letters is simulated in parallel beam only "
-                             "(scanner.source_distance must be unset)")
+        bin) by linear interpolation of the detector coordinate it projects to, over the width of
+        detector that sees it (``Geometry.project_points``); sub-bins are averaged per bin."""
+        geometry = scanner.geometry
         fine = grid.refined(PROJECT_REFINE)
         sdfs = self._sdfs(fine.size)
         x, y = (c.ravel() for c in fine.xy())
         n_sub = scanner.n_bins * PROJECT_REFINE
         sub_width = scanner.bin_spacing / PROJECT_REFINE
-        first_centre = scanner.geometry.bin_edges[0] + sub_width / 2
+        first_centre = geometry.bin_edges[0] + sub_width / 2
         mass = self.conf.intensity * fine.pixel_size**2 / sub_width
         sino = np.zeros((scanner.n_views, n_sub))
         ks, ws = self.state(scanner.times)
         for view, (theta, k, w) in enumerate(zip(scanner.angles, ks, ws)):
             on = self._fine_mask(int(k), float(w), sdfs).ravel()
-            u = (x[on] * math.cos(theta) + y[on] * math.sin(theta) - first_centre) / sub_width
+            u, scale = (a[0] for a in geometry.project_points(x[on], y[on], np.array([theta])))
+            u = (u - first_centre) / sub_width
             lo = np.floor(u).astype(np.int64)
             frac = u - lo
             idx = np.concatenate([lo, lo + 1])
-            wts = np.concatenate([1 - frac, frac])
+            wts = np.concatenate([1 - frac, frac]) * np.tile(scale, 2)
             keep = (idx >= 0) & (idx < n_sub)
             sino[view] = np.bincount(idx[keep], wts[keep], minlength=n_sub)
         sino *= mass
