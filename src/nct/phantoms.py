@@ -5,10 +5,11 @@ per gantry rotation; a built `Phantom` scales by ``grid.extent`` when asked for 
 Each config dataclass doubles as the Hydra schema of its ``phantom`` group option.
 
 Detector model (all scenes): a bin's value is the mean line integral over the bin's width (box
-aperture), every view at its own instant; in fan beam the bin is the strip of lines at its
-centre ray's angle across the ray offsets of its edges. Ellipses use the exact integral of their
-closed-form chord length along the scanner geometry's rays (parallel or fan beam); other scenes
-are rasterised 4x finer than the grid and projected pixel-driven.
+aperture), every view at its own instant, along the scanner geometry's rays (parallel or fan
+beam). Ellipses use the exact integral of their closed-form chord length (in fan beam over the
+strip of lines at the bin's centre-ray angle between the ray offsets of its edges: within 1e-3 of
+the mean over the bin's fan of rays); other scenes are rasterised 4x finer than the grid and
+projected pixel-driven.
 """
 
 from __future__ import annotations
