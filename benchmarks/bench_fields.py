@@ -13,6 +13,7 @@ import time
 import torch
 
 from nct.fields import ModelConf, build_field
+from nct.geometry import ParallelGeometry
 from nct.scanner import ImageGrid
 from nct.method_conf import LossConf, OptimConf, RenderConf
 from nct.stages import SinogramFit, Views
@@ -24,7 +25,8 @@ CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_te
 def step_ms(model: ModelConf, size: int, views: int, steps: int = 20, warmup: int = 5) -> tuple[int, float]:
     """Parameters of the field and median milliseconds per SinogramFit step on a size x size grid."""
     n_views = 720
-    data = Views(torch.rand(n_views, size), torch.linspace(0, 6.28, n_views), torch.linspace(0, 1, n_views), 1 / size)
+    data = Views(torch.rand(n_views, size), torch.linspace(0, 6.28, n_views), torch.linspace(0, 1, n_views),
+                 ParallelGeometry(size, 1 / size))
     net = build_field(model, 1, torch.Generator().manual_seed(0))
     fit = SinogramFit(net, ImageGrid(size, 1.0), OptimConf(), RenderConf(), LossConf(), data, torch.tensor([1.0]), steps)
     fit.log_dict = lambda *args, **kwargs: None  # outside a Trainer: nothing to log to

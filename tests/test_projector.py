@@ -8,6 +8,7 @@ from functools import partial
 import numpy as np
 import pytest
 import torch
+from geometry_cases import ellipse_image, rel_l2
 from skimage.transform import iradon, radon
 
 from nct import projector
@@ -36,24 +37,8 @@ def ellipse_projection(s: np.ndarray, angles: np.ndarray, ellipses) -> np.ndarra
     return total
 
 
-def ellipse_image(grid: ImageGrid, ellipses, supersample: int = 8) -> np.ndarray:
-    """Area-averaged intensity of filled ellipses on ``grid``: [H, W] float64."""
-    x, y = grid.refined(supersample).xy()
-    fine = np.zeros_like(x)
-    for cx, cy, a, b, phi, value in ellipses:
-        along = (x - cx) * np.cos(phi) + (y - cy) * np.sin(phi)
-        across = -(x - cx) * np.sin(phi) + (y - cy) * np.cos(phi)
-        fine += value * ((along / a) ** 2 + (across / b) ** 2 <= 1)
-    n = grid.size
-    return fine.reshape(n, supersample, n, supersample).mean(axis=(1, 3))
-
-
 def bins(n_bins: int, spacing: float) -> np.ndarray:
     return Scanner(n_bins=n_bins, bin_spacing=spacing).bin_positions
-
-
-def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
 def dice(a: np.ndarray, b: np.ndarray) -> float:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import torch
 
+from nct.geometry import ParallelGeometry
 from nct.render import intensity, occupancy, project_frames
 from nct.scanner import ImageGrid
 
@@ -15,6 +16,7 @@ GRID = ImageGrid(64)
 RADIUS, CX, CY = 0.2, 0.08, -0.05
 ANGLES = torch.tensor([0.0, 0.7, 1.9, 3.0])
 N_BINS, SPACING = 64, 1 / 64
+GEOMETRY = ParallelGeometry(N_BINS, SPACING)
 
 
 def disc_sdf() -> torch.Tensor:
@@ -51,7 +53,7 @@ def test_intensity_sums_objects():
 @pytest.mark.parametrize("k_samp", [1, 2])
 def test_projection_matches_exact_disc_integrals(k_samp):
     sdf = disc_sdf()[None, None].expand(len(ANGLES), 1, -1, -1)
-    sino = project_frames(sdf, torch.ones(1), ANGLES, GRID.extent, N_BINS, SPACING, GRID.pixel_size, 50.0, k_samp)
+    sino = project_frames(sdf, torch.ones(1), ANGLES, GEOMETRY, GRID.extent, GRID.pixel_size, 50.0, k_samp)
     exact = disc_projection()
     error = np.abs(sino.numpy() - exact).mean() / exact.mean()
     assert error < 0.01
@@ -60,7 +62,7 @@ def test_projection_matches_exact_disc_integrals(k_samp):
 
 def test_gradient_reaches_the_band_only():
     sdf = disc_sdf()[None, None].clone().requires_grad_(True)
-    project_frames(sdf, torch.ones(1), ANGLES[:1], GRID.extent, N_BINS, SPACING, 4 * GRID.pixel_size, 50.0).sum().backward()
+    project_frames(sdf, torch.ones(1), ANGLES[:1], GEOMETRY, GRID.extent, 4 * GRID.pixel_size, 50.0).sum().backward()
     grad = sdf.grad[0, 0].abs()
     near = disc_sdf().abs() < 1.5 * GRID.pixel_size
     far = disc_sdf().abs() > 2.5 * GRID.pixel_size
@@ -71,4 +73,4 @@ def test_bad_arguments():
     with pytest.raises(ValueError, match="band"):
         occupancy(torch.zeros(3), 0.0, 50.0)
     with pytest.raises(ValueError, match="k_samp"):
-        project_frames(torch.zeros(1, 1, 8, 8), torch.ones(1), torch.zeros(1), 1.0, 8, 0.125, 0.1, 50.0, 0)
+        project_frames(torch.zeros(1, 1, 8, 8), torch.ones(1), torch.zeros(1), ParallelGeometry(8, 0.125), 1.0, 0.1, 50.0, 0)

@@ -2,8 +2,9 @@
 
 Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians (degrees with
 ``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing), ``bin_spacing`` scalar;
-optional ``source_distance``
-(fan beam, not yet supported), and for scoring ``truth`` [n_frames, H, W] with
+optional ``detector_offset`` (default 0), and fan beam when ``source_distance`` is present, with
+``detector_distance`` (both > 0) and optional ``detector_shape`` ("flat" default, or "curved"):
+the convention of ``geometry.py``; for scoring ``truth`` [n_frames, H, W] with
 ``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``).
 """
 
@@ -15,10 +16,12 @@ from pathlib import Path
 import numpy as np
 
 from nct.errors import InputError
+from nct.geometry import DETECTOR_SHAPES, Geometry, make_geometry
 from nct.sinogram import Sinogram, Truth
 
 REQUIRED = ("sinogram", "angles", "times", "bin_spacing")
-OPTIONAL = ("source_distance", "truth", "truth_times", "truth_extent", "truth_level", "angles_unit")
+GEOMETRY_KEYS = ("source_distance", "detector_distance", "detector_shape", "detector_offset")
+OPTIONAL = (*GEOMETRY_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit")
 ANGLES_UNITS = ("rad", "deg")
 MAX_ROTATIONS = 16  # angles in radians spanning more turns than this look like degrees
 LARGEST = 1e9  # |line integral| beyond this is no attenuation (a scaling or type error)
@@ -30,10 +33,9 @@ def save_sinogram(path: str | Path, sino: Sinogram) -> None:
         "sinogram": np.asarray(sino.values, dtype=np.float32),
         "angles": np.asarray(sino.angles, dtype=np.float64),
         "times": np.asarray(sino.times, dtype=np.float64),
-        "bin_spacing": np.float64(sino.bin_spacing),
     }
-    if sino.source_distance is not None:
-        arrays["source_distance"] = np.float64(sino.source_distance)
+    for key, value in sino.geometry.keys().items():
+        arrays[key] = np.str_(value) if isinstance(value, str) else np.float64(value)
     if sino.truth is not None:
         arrays["truth"] = np.asarray(sino.truth.frames, dtype=np.float32)
         arrays["truth_times"] = np.asarray(sino.truth.times, dtype=np.float64)
@@ -106,12 +108,32 @@ def load_sinogram(path: str | Path) -> Sinogram:
             raise _fail(path, "times", "non-decreasing times", "times that go backwards")
         if np.ptp(times) == 0:
             raise _fail(path, "times", "times that advance over the scan", f"every view at the same time {times[0]:g}")
-        bin_spacing = _scalar(data, path, "bin_spacing")
-        source_distance = _scalar(data, path, "source_distance") if "source_distance" in data.files else None
-        if source_distance is not None:
-            raise _fail(path, "source_distance", "absent (fan beam is not supported yet)", repr(source_distance))
+        geometry = _geometry(data, path, values.shape[1])
         truth = _load_truth(data, path)
-    return Sinogram(values, angles, times, bin_spacing, source_distance, truth)
+    return Sinogram(values, angles, times, truth=truth, **geometry.keys())
+
+
+def _geometry(data, path: Path, n_bins: int) -> Geometry:
+    """The beam and detector from ``bin_spacing`` and the optional geometry keys."""
+    given: dict[str, float | str] = {
+        key: _scalar(data, path, key, positive=key != "detector_offset")
+        for key in ("bin_spacing", "source_distance", "detector_distance", "detector_offset")
+        if key in data.files
+    }
+    if "detector_shape" in data.files:
+        given["detector_shape"] = shape = _text(data, path, "detector_shape")
+        if shape not in DETECTOR_SHAPES:
+            raise _fail(path, "detector_shape", "'flat' or 'curved'", repr(shape))
+    try:
+        return make_geometry(n_bins, **given)
+    except ValueError as err:
+        raise InputError(f"{path}: {err}") from None
+
+
+def _text(data, path: Path, key: str) -> str:
+    """A string-valued key (its single element; several elements are shown as a list)."""
+    raw = _read(data, path, key)
+    return str(raw.reshape(-1)[0]) if raw.size == 1 else repr(raw.tolist())
 
 
 def _check_values(values: np.ndarray, path: Path) -> None:
@@ -135,8 +157,7 @@ def _angles(data, path: Path, n_views: int) -> np.ndarray:
     angles = _array(data, path, "angles", 1, n_views).astype(np.float64)
     unit = None
     if "angles_unit" in data.files:
-        raw = _read(data, path, "angles_unit")
-        unit = str(raw.reshape(-1)[0]) if raw.size == 1 else repr(raw.tolist())
+        unit = _text(data, path, "angles_unit")
         if unit not in ANGLES_UNITS:
             raise _fail(path, "angles_unit", "'rad' or 'deg'", repr(unit))
     if unit == "deg":

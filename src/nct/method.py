@@ -71,8 +71,7 @@ def split_views(n_views: int, every: int) -> tuple[np.ndarray, np.ndarray]:
 
 def subset(sino: Sinogram, views: np.ndarray) -> Sinogram:
     """The given views of ``sino``, without its truth."""
-    return Sinogram(values=sino.values[views], angles=sino.angles[views], times=sino.times[views],
-                    bin_spacing=sino.bin_spacing, source_distance=sino.source_distance)
+    return replace(sino, values=sino.values[views], angles=sino.angles[views], times=sino.times[views], truth=None)
 
 
 @torch.no_grad()
@@ -169,7 +168,7 @@ def reconstruct(
     seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
-                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), float(sino.bin_spacing))
+                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer)
     amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
 

@@ -40,9 +40,8 @@ class Units:
     def sinogram(self, sino: Sinogram) -> Sinogram:
         """``sino`` in method units (line integrals are intensity x length), without its truth."""
         values = np.asarray(sino.values, dtype=np.float64) / (self.intensity * self.length)
-        source = None if sino.source_distance is None else sino.source_distance / self.length
         return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times,
-                        bin_spacing=sino.bin_spacing / self.length, source_distance=source)
+                        **sino.geometry.scaled(1 / self.length).keys())
 
     def with_intensity_of(self, frames: np.ndarray) -> "Units":
         """These units with the intensity unit set from FBP ``frames`` [F, H, W] already in these

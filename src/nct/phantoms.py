@@ -5,8 +5,11 @@ per gantry rotation; a built `Phantom` scales by ``grid.extent`` when asked for 
 Each config dataclass doubles as the Hydra schema of its ``phantom`` group option.
 
 Detector model (all scenes): a bin's value is the mean line integral over the bin's width (box
-aperture), every view at its own instant. Ellipses use the exact integral of their closed-form
-chord length; other scenes are rasterised 4x finer than the grid and projected pixel-driven.
+aperture), every view at its own instant, along the scanner geometry's rays (parallel or fan
+beam). Ellipses use the exact integral of their closed-form chord length (in fan beam over the
+strip of lines at the bin's centre-ray angle between the ray offsets of its edges: within 1e-3 of
+the mean over the bin's fan of rays); other scenes are rasterised 4x finer than the grid and
+projected pixel-driven.
 """
 
 from __future__ import annotations
@@ -266,12 +269,6 @@ def _check_supersample(supersample: int) -> None:
         raise ValueError(f"supersample must be an integer >= 1, got {supersample}")
 
 
-def _bin_edges(scanner: Scanner) -> np.ndarray:
-    """Edges of the detector bins: [n_bins + 1]."""
-    half = scanner.bin_spacing / 2
-    return np.append(scanner.bin_positions - half, scanner.bin_positions[-1] + half)
-
-
 def heart_waveform(phase: np.ndarray, waveform: str) -> np.ndarray:
     """Relative size w in [-1, 1] at cycle ``phase`` (cycles, any real): [T] -> [T].
 
@@ -332,18 +329,29 @@ class EllipsePhantom(Phantom):
         return _block_mean(fine, supersample)
 
     def project(self, scanner: Scanner, grid: ImageGrid) -> np.ndarray:
-        """Exact mean over each bin's width of the chord length 2ab·sqrt(h² − s'²)/h², with
-        h² = a²cos²φ' + b²sin²φ', φ' = θ − angle, s' = s − (x cos θ + y sin θ)."""
-        theta = scanner.angles[:, None]
-        edges = _bin_edges(scanner)[None, :]
+        """Exact mean over each bin of the chord length 2ab·sqrt(h² − σ'²)/h² along the scanner's rays,
+        with h² = a²cos²φ' + b²sin²φ', φ' = φ − angle, σ' = σ − (x cos φ + y sin φ), (φ, σ) a ray's
+        normal form (``geometry.py``). A bin is the strip of lines at its centre ray's φ between the σ
+        of its edges: in parallel beam exactly the bin; in fan beam it neglects the bin's angular width."""
+        geometry = scanner.geometry
+        phi, _ = geometry.lines(scanner.angles, geometry.bin_positions)
+        _, edges = geometry.lines(scanner.angles, geometry.bin_edges)
+        phi = np.broadcast_to(phi, (scanner.n_views, scanner.n_bins))
+        edges = np.broadcast_to(edges, (scanner.n_views, scanner.n_bins + 1))
         sino = np.zeros((scanner.n_views, scanner.n_bins))
         for obj in self.ellipses(scanner.times, grid.extent).transpose(1, 2, 0):
             cx, cy, a, b, angle, intensity = obj[:, :, None]
-            h = np.sqrt((a * np.cos(theta - angle)) ** 2 + (b * np.sin(theta - angle)) ** 2)
-            s = np.clip(edges - (cx * np.cos(theta) + cy * np.sin(theta)), -h, h)
-            antiderivative = s * np.sqrt(np.maximum(h * h - s * s, 0.0)) + h * h * np.arcsin(s / h)
-            sino += intensity * (a * b / (h * h)) * np.diff(antiderivative, axis=1) / scanner.bin_spacing
+            h = np.sqrt((a * np.cos(phi - angle)) ** 2 + (b * np.sin(phi - angle)) ** 2)
+            centre = cx * np.cos(phi) + cy * np.sin(phi)
+            lo, hi = (np.clip(side - centre, -h, h) for side in (edges[:, :-1], edges[:, 1:]))
+            area = (_chord_antiderivative(hi, h) - _chord_antiderivative(lo, h)) * a * b / (h * h)
+            sino += intensity * area / np.diff(edges, axis=1)
         return sino.astype(np.float32)
+
+
+def _chord_antiderivative(s: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """∫ 2·sqrt(h² − s²) ds (up to a constant), for |s| <= h: the area under a unit disc's chords."""
+    return s * np.sqrt(np.maximum(h * h - s * s, 0.0)) + h * h * np.arcsin(s / h)
 
 
 # ----------------------------------------------------------------------------- letters
@@ -437,23 +445,26 @@ class LetterPhantom(Phantom):
 
     def project(self, scanner: Scanner, grid: ImageGrid) -> np.ndarray:
         """Pixel-driven: each occupied fine pixel's mass goes to sub-bins (``PROJECT_REFINE`` per
-        bin) by linear interpolation of s = x cos θ + y sin θ; sub-bins are averaged per bin."""
+        bin) by linear interpolation of the detector coordinate it projects to, over the width of
+        detector that sees it (``Geometry.project_points``); sub-bins are averaged per bin."""
+        geometry = scanner.geometry
         fine = grid.refined(PROJECT_REFINE)
         sdfs = self._sdfs(fine.size)
         x, y = (c.ravel() for c in fine.xy())
         n_sub = scanner.n_bins * PROJECT_REFINE
         sub_width = scanner.bin_spacing / PROJECT_REFINE
-        first_centre = _bin_edges(scanner)[0] + sub_width / 2
+        first_centre = geometry.bin_edges[0] + sub_width / 2
         mass = self.conf.intensity * fine.pixel_size**2 / sub_width
         sino = np.zeros((scanner.n_views, n_sub))
         ks, ws = self.state(scanner.times)
         for view, (theta, k, w) in enumerate(zip(scanner.angles, ks, ws)):
             on = self._fine_mask(int(k), float(w), sdfs).ravel()
-            u = (x[on] * math.cos(theta) + y[on] * math.sin(theta) - first_centre) / sub_width
+            u, scale = (a[0] for a in geometry.project_points(x[on], y[on], np.array([theta])))
+            u = (u - first_centre) / sub_width
             lo = np.floor(u).astype(np.int64)
             frac = u - lo
             idx = np.concatenate([lo, lo + 1])
-            wts = np.concatenate([1 - frac, frac])
+            wts = np.concatenate([1 - frac, frac]) * np.tile(scale, 2)
             keep = (idx >= 0) & (idx < n_sub)
             sino[view] = np.bincount(idx[keep], wts[keep], minlength=n_sub)
         sino *= mass

@@ -50,7 +50,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
         if sino.truth is not None:
             grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
             return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
-        extent = conf.data.extent if conf.data.extent is not None else sino.n_bins * sino.bin_spacing
+        extent = conf.data.extent if conf.data.extent is not None else 2 * sino.geometry.field_radius
         grid = ImageGrid(conf.image.size, extent)
         span = float(np.ptp(sino.angles)) / (2 * math.pi)
         n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))

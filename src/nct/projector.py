@@ -1,7 +1,8 @@
-"""Parallel-beam projector (differentiable, torch) and filtered backprojection.
+"""Projector along any `Geometry`'s rays (differentiable, torch) and parallel-beam filtered backprojection.
 
-Geometry as in ``scanner.py``: s = x cos(theta) + y sin(theta), x right, y up, bin i at
-(i - (n - 1) / 2) * bin_spacing. Sinogram values are line integrals in physical units.
+Rays as in ``geometry.py``; x right, y up. Sinogram values are line integrals in physical units.
+FBP is parallel beam with a centred detector (s = x cos(theta) + y sin(theta), bin i at
+(i - (n - 1) / 2) * bin_spacing); `fbp_frames` first rebins any other geometry onto such rays.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from nct.geometry import FanGeometry, Geometry, ParallelGeometry
 from nct.method_conf import FILTERS
+from nct.rebin import to_parallel
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram
 
@@ -24,36 +27,42 @@ _CHUNK_SAMPLES = 2**22
 
 
 class Projector(nn.Module):
-    """Line integrals of square images by bilinear sampling along each ray (``grid_sample``).
+    """Line integrals of square images along the rays of a `Geometry`, by bilinear sampling (``grid_sample``).
 
-    Holds the fixed ray-sample offsets: ``bin_samples`` rays per bin (averaged) and samples every
-    ``ray_step`` (default: one pixel) along each ray across the whole field of view.
+    Holds the fixed ray samples: ``bin_samples`` rays per bin (averaged, spread evenly over the
+    bin's width in detector coordinate) and samples every ``ray_step`` (default: one pixel) along
+    each ray across the whole field of view, centred on the ray's closest approach to the axis.
     """
 
     def __init__(
         self,
+        geometry: Geometry,
         size: int,
         extent: float,
-        n_bins: int,
-        bin_spacing: float,
         ray_step: float | None = None,
         bin_samples: int = 1,
     ) -> None:
         super().__init__()
-        _check_geometry(size, extent, n_bins, bin_spacing, ray_step, bin_samples)
+        _check_sampling(size, extent, ray_step, bin_samples)
         half = extent / 2
-        self.n_bins = n_bins
+        if isinstance(geometry, FanGeometry) and not geometry.source_distance > half * math.sqrt(2):
+            raise ValueError(
+                f"source_distance must exceed the image's half-diagonal {half * math.sqrt(2):.4g}"
+                f" (the source must lie outside the field of view), got {geometry.source_distance}"
+            )
+        self.n_bins = geometry.n_bins
+        # Rays in grid_sample's units (half the image side is 1), computed in the images' dtype.
+        self.unit_geometry = geometry.scaled(1 / half)
         self.bin_samples = bin_samples
         self.step = float(ray_step) if ray_step is not None else extent / size
         sub = (torch.arange(bin_samples, dtype=torch.float64) + 0.5) / bin_samples - 0.5
-        bins = torch.arange(n_bins, dtype=torch.float64) - (n_bins - 1) / 2
-        s = ((bins[:, None] + sub[None, :]) * bin_spacing).reshape(-1)
+        centres = torch.from_numpy(geometry.bin_positions)
+        self.register_buffer("u_norm", (centres[:, None] + sub[None, :] * geometry.bin_spacing).reshape(-1) / half)
         # Rays cross at most the square's diagonal, plus the half pixel that bilinear sampling reaches.
         reach = half * math.sqrt(2) + extent / size
-        n_u = math.ceil(2 * reach / self.step) + 1
-        u = (torch.arange(n_u, dtype=torch.float64) - (n_u - 1) / 2) * self.step
-        self.register_buffer("s_norm", s / half)
-        self.register_buffer("u_norm", u / half)
+        n_t = math.ceil(2 * reach / self.step) + 1
+        t = (torch.arange(n_t, dtype=torch.float64) - (n_t - 1) / 2) * self.step
+        self.register_buffer("t_norm", t / half)
 
     def forward(self, images: Tensor, angles: Tensor) -> Tensor:
         """Project image b at angle b ([B,H,W], [B]) or one image at every angle ([H,W], [B]): [B, n_bins]."""
@@ -63,49 +72,56 @@ class Projector(nn.Module):
             raise ValueError(
                 f"angles must be [B] matching images [B,H,W], got {tuple(angles.shape)} for {tuple(images.shape)}"
             )
-        s = self.s_norm.to(images)
-        u = self.u_norm.to(images)
-        cos = torch.cos(angles).to(images)[:, None]
-        sin = torch.sin(angles).to(images)[:, None]
-        # Ray point p = s (cos, sin) + u (-sin, cos); grid_sample's y runs down the rows.
-        grid = images.new_empty(angles.shape[0], s.shape[0], u.shape[0], 2)
-        torch.sub((s * cos)[:, :, None], (u * sin)[:, None, :], out=grid[..., 0])
-        torch.add((s * sin)[:, :, None], (u * cos)[:, None, :], out=grid[..., 1]).neg_()
-        n_views, n_s, n_u = grid.shape[:3]
+        point, direction = self.unit_geometry.rays(angles.to(images), self.u_norm.to(images))
+        # Sample p + t v along every ray; grid_sample's y runs down the rows.
+        grid = self.t_norm.to(images)[:, None] * direction[:, :, None, :]
+        grid += point[:, :, None, :]
+        grid[..., 1].neg_()
+        n_views, n_rays, n_t = grid.shape[:3]
         if images.ndim == 2:
-            samples = F.grid_sample(
-                images[None, None], grid.reshape(1, n_views * n_s, n_u, 2), align_corners=False
-            )
+            samples = F.grid_sample(images[None, None], grid.reshape(1, n_views * n_rays, n_t, 2), align_corners=False)
         else:
             samples = F.grid_sample(images[:, None], grid, align_corners=False)
-        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_u).sum(dim=-1)
+        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_t).sum(dim=-1)
         return sums.mean(dim=-1) * self.step
 
 
-def _check_geometry(
-    size: int, extent: float, n_bins: int, bin_spacing: float, ray_step: float | None, bin_samples: int
-) -> None:
+def _check_sampling(size: int, extent: float, ray_step: float | None, bin_samples: int) -> None:
     checks = {
         "size (image pixels a side) must be >= 2": size >= 2,
         "extent must be > 0": extent > 0,
-        "n_bins must be >= 1": n_bins >= 1,
-        "bin_spacing must be > 0": bin_spacing > 0,
         "ray_step must be None or > 0": ray_step is None or ray_step > 0,
         "bin_samples must be >= 1": bin_samples >= 1,
     }
     failed = [rule for rule, ok in checks.items() if not ok]
     if failed:
         raise ValueError(
-            f"projector: {'; '.join(failed)} (got size={size}, extent={extent}, n_bins={n_bins},"
-            f" bin_spacing={bin_spacing}, ray_step={ray_step}, bin_samples={bin_samples})"
+            f"projector: {'; '.join(failed)} (got size={size}, extent={extent}, ray_step={ray_step},"
+            f" bin_samples={bin_samples})"
         )
 
 
 @lru_cache(maxsize=16)
-def _projector(
-    size: int, extent: float, n_bins: int, bin_spacing: float, ray_step: float | None, bin_samples: int
-) -> Projector:
-    return Projector(size, extent, n_bins, bin_spacing, ray_step, bin_samples)
+def _projector(geometry: Geometry, size: int, extent: float, ray_step: float | None, bin_samples: int) -> Projector:
+    return Projector(geometry, size, extent, ray_step, bin_samples)
+
+
+def project(
+    images: Tensor,
+    angles: Tensor,
+    geometry: Geometry,
+    extent: float,
+    ray_step: float | None = None,
+    bin_samples: int = 1,
+) -> Tensor:
+    """Differentiable line integrals along ``geometry``'s rays: images [B,H,W] (or one [H,W]), angles [B] rad
+    -> [B, n_bins].
+
+    Each image b is projected at its own angle b (one frame per view of a moving scene); images
+    cover ``extent`` a side. ``ray_step`` / ``bin_samples``: see ``Projector``.
+    """
+    size = int(images.shape[-1])
+    return _projector(geometry, size, float(extent), ray_step, int(bin_samples))(images, angles)
 
 
 def forward_project(
@@ -117,15 +133,12 @@ def forward_project(
     ray_step: float | None = None,
     bin_samples: int = 1,
 ) -> Tensor:
-    """Differentiable line integrals: images [B,H,W] (or one [H,W]), angles [B] rad -> [B, n_bins].
-
-    Each image b is projected at its own angle b (one frame per view of a moving scene); images
-    cover ``extent`` a side. ``ray_step`` / ``bin_samples``: see ``Projector``.
-    """
-    size = int(images.shape[-1])
-    return _projector(size, float(extent), int(n_bins), float(bin_spacing), ray_step, int(bin_samples))(
-        images, angles
-    )
+    """`project` in parallel beam with a centred detector of ``n_bins`` bins ``bin_spacing`` apart."""
+    try:
+        geometry = ParallelGeometry(int(n_bins), float(bin_spacing))
+    except ValueError as err:
+        raise ValueError(f"projector: {err}") from None
+    return project(images, angles, geometry, extent, ray_step, bin_samples)
 
 
 def filter_sinogram(values: Tensor, bin_spacing: float, filter: str = "ramp") -> Tensor:
@@ -240,11 +253,13 @@ def fbp_frames(
 ) -> np.ndarray:
     """FBP at each time from the views spanning ``window_deg`` centred on the nearest view: [F, H, W] f32.
 
+    Any geometry: ``sino`` is first rebinned onto centred parallel rays (``rebin.to_parallel``).
     Windows are clamped inside the acquisition. Every view is filtered and backprojected once; a
     window is the difference of two running sums over views.
     """
     if not 0 < window_deg <= 360:
         raise ValueError(f"fbp.window_deg must be in (0, 360], got {window_deg}")
+    sino = to_parallel(sino)
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1 or not np.all(np.isfinite(times)):
         raise ValueError(f"times must be a finite 1-D array, got shape {times.shape}")

@@ -15,7 +15,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
-from nct.projector import forward_project
+from nct.geometry import Geometry
+from nct.projector import project
 
 
 def occupancy(sdf: Tensor, band: float, mu: float) -> Tensor:
@@ -35,14 +36,13 @@ def project_frames(
     sdf: Tensor,
     intensities: Tensor,
     angles: Tensor,
+    geometry: Geometry,
     extent: float,
-    n_bins: int,
-    bin_spacing: float,
     band: float,
     mu: float,
     k_samp: int = 1,
 ) -> Tensor:
-    """Render frame t at view angle t: sdf [T, K, H, W], angles [T] -> sinogram views [T, n_bins].
+    """Render frame t at view angle t along ``geometry``'s rays: sdf [T, K, H, W], angles [T] -> views [T, n_bins].
 
     ``k_samp`` > 1 upsamples the SDF bilinearly, draws the occupancy on the finer grid and
     averages ``k_samp`` rays per detector bin (the paper's supersampling and average pooling).
@@ -52,4 +52,4 @@ def project_frames(
     if k_samp > 1:
         sdf = F.interpolate(sdf, scale_factor=k_samp, mode="bilinear", align_corners=False)
     images = intensity(sdf, intensities, band, mu)
-    return forward_project(images, angles, extent, n_bins, bin_spacing, bin_samples=k_samp)
+    return project(images, angles, geometry, extent, bin_samples=k_samp)

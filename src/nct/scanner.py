@@ -1,8 +1,8 @@
-"""Acquisition geometry: the image grid and the scanner (angle and time of every view).
+"""The image grid and the scanner (angle and time of every view, and its detector's `Geometry`).
 
 Convention (that of ``skimage.transform.radon``): a point (x, y), x to the right along columns,
 y up against the row index, origin at the image centre, projects at angle theta to
-s = x cos(theta) + y sin(theta). Detector bin i sits at s = (i - (n_bins - 1) / 2) * bin_spacing.
+s = x cos(theta) + y sin(theta) in parallel beam; rays and bins of every beam are in ``geometry.py``.
 Pixel j of N sits at (j + 0.5) * extent / N - extent / 2 (x for columns; y is mirrored for rows).
 """
 
@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from nct.geometry import FanGeometry, ParallelGeometry, make_geometry
 
 
 @dataclass(frozen=True)
@@ -49,9 +51,11 @@ class ImageGrid:
 
 @dataclass(frozen=True)
 class Scanner:
-    """A parallel-beam scanner; every view's angle and time derive from here, nowhere else.
+    """A scanner; every view's angle and time derive from here, nowhere else, and its rays from `geometry`.
 
-    ``rotations`` may be fractional. ``source_distance`` is reserved for fan beam (None: parallel).
+    ``rotations`` may be fractional. Parallel beam unless ``source_distance`` is given; the fan-beam
+    keys (``source_distance``, ``detector_distance``, ``detector_shape``) and ``detector_offset``
+    are those of `geometry.make_geometry`.
     """
 
     views_per_rotation: int = 720
@@ -61,6 +65,9 @@ class Scanner:
     n_bins: int = 128
     bin_spacing: float = 1.0 / 128
     source_distance: float | None = None
+    detector_distance: float | None = None
+    detector_shape: str | None = None
+    detector_offset: float = 0.0
 
     def __post_init__(self) -> None:
         if self.views_per_rotation < 2:
@@ -73,8 +80,16 @@ class Scanner:
             raise ValueError(f"scanner.n_bins must be >= 2, got {self.n_bins}")
         if not self.bin_spacing > 0:
             raise ValueError(f"scanner.bin_spacing must be > 0, got {self.bin_spacing}")
-        if self.source_distance is not None:
-            raise NotImplementedError("fan beam (scanner.source_distance) is not implemented yet")
+        try:
+            self.geometry
+        except ValueError as err:
+            raise ValueError(f"scanner.{err}") from None
+
+    @property
+    def geometry(self) -> ParallelGeometry | FanGeometry:
+        """The detector and beam of every view."""
+        return make_geometry(self.n_bins, self.bin_spacing, self.source_distance, self.detector_distance,
+                             self.detector_shape, self.detector_offset)
 
     @property
     def n_views(self) -> int:
@@ -98,8 +113,8 @@ class Scanner:
 
     @property
     def bin_positions(self) -> np.ndarray:
-        """Detector coordinate s of every bin centre: [n_bins] float64."""
-        return (np.arange(self.n_bins) - (self.n_bins - 1) / 2) * self.bin_spacing
+        """Detector coordinate of every bin centre: [n_bins] float64."""
+        return self.geometry.bin_positions
 
     def frame_times(self, frames_per_rotation: int) -> np.ndarray:
         """Evenly spaced times across the acquisition, centred in their slots: [F] float64."""

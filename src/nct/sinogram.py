@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nct.geometry import FanGeometry, ParallelGeometry, make_geometry
+
 
 @dataclass(frozen=True)
 class Truth:
@@ -23,10 +25,12 @@ class Truth:
 
 @dataclass(frozen=True)
 class Sinogram:
-    """Parallel-beam line integrals of one acquisition.
+    """Line integrals of one acquisition.
 
     values: [n_views, n_bins] float32; angles: [n_views] radians; times: [n_views] seconds,
-    non-decreasing; bin_spacing: detector pitch in the image's physical units.
+    non-decreasing; bin_spacing: detector pitch in the image's physical units. Parallel beam
+    unless ``source_distance`` is given; the detector fields are the file keys of ``io.py``, and
+    `geometry` is what every consumer asks.
     """
 
     values: np.ndarray
@@ -35,6 +39,15 @@ class Sinogram:
     bin_spacing: float
     source_distance: float | None = None
     truth: Truth | None = None
+    detector_distance: float | None = None
+    detector_shape: str | None = None
+    detector_offset: float = 0.0
+
+    @property
+    def geometry(self) -> ParallelGeometry | FanGeometry:
+        """The rays of every bin (raises ``ValueError`` naming the key of an invalid value)."""
+        return make_geometry(self.n_bins, self.bin_spacing, self.source_distance, self.detector_distance,
+                             self.detector_shape, self.detector_offset)
 
     @property
     def n_views(self) -> int:

@@ -26,6 +26,7 @@ from torch.utils.data import DataLoader, IterableDataset
 
 from nct.errors import DivergenceError, InputError
 from nct.fields import Field
+from nct.geometry import Geometry
 from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.progress import StageBar, log_stage, show_bar
 from nct.render import intensity, occupancy, project_frames
@@ -33,12 +34,12 @@ from nct.scanner import ImageGrid
 
 @dataclass(frozen=True)
 class Views:
-    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations."""
+    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry."""
 
     values: Tensor
     angles: Tensor
     times: Tensor
-    bin_spacing: float
+    geometry: Geometry
 
     @property
     def scale(self) -> float:
@@ -135,7 +136,7 @@ class SinogramFit(FieldStage):
         self.render_conf = render
         self.loss_conf = loss
         self.steps = steps
-        self.bin_spacing = views.bin_spacing
+        self.geometry = views.geometry
         self.scale = views.scale
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
@@ -159,8 +160,8 @@ class SinogramFit(FieldStage):
 
     def render(self, sdf: Tensor, views: Tensor, band: float) -> Tensor:
         """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] at the angles of ``views`` [v]."""
-        return project_frames(sdf, self.intensities, self.angles[views], self.grid.extent, self.values.shape[1],
-                              self.bin_spacing, band, self.render_conf.mu, self.render_conf.k_samp)
+        return project_frames(sdf, self.intensities, self.angles[views], self.geometry, self.grid.extent, band,
+                              self.render_conf.mu, self.render_conf.k_samp)
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         band = self.band()
