@@ -45,7 +45,12 @@ SCENES = {  # objects, Poisson I0 (None: noiseless)
 }
 
 
-@pytest.mark.parametrize("name", SCENES)
+LOST = pytest.mark.xfail(strict=True, reason="issue 9: a small object (radius 2 px here) flickers out of the field "
+                        "in the first SinogramFit steps (Adam at optim.lr moves the SDF ~1 px a step) and, outside "
+                        "the occupancy band, gets no gradient back; no crash, but not found")
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=LOST) if n in ("small", "small_noisy") else n for n in SCENES])
 def test_every_scene_gets_an_initialisation(name):
     objects, i0 = SCENES[name]
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
@@ -64,3 +69,16 @@ def test_every_scene_gets_an_initialisation(name):
     occupied = result.frames >= 0.5 * min(result.intensities)
     overlap = np.median(dice(occupied, sino.truth.frames >= sino.truth.level))
     assert overlap > 0.4, overlap
+
+
+def test_balanced_l1_weighs_inside_and_outside_equally():
+    """One inside pixel counts as much as the 15 outside: a field negative everywhere is no fit."""
+    import torch
+
+    from nct.stages import balanced_l1
+
+    targets = -torch.ones(1, 1, 4, 4)
+    targets[0, 0, 1, 1] = 1.0
+    everywhere_outside = -torch.ones(1, 1, 4, 4)
+    assert float(balanced_l1(everywhere_outside, targets)) == pytest.approx(0.5 * (2.0 + 0.0))
+    assert float((everywhere_outside - targets).abs().mean()) == pytest.approx(2 / 16)  # what plain L1 gave

@@ -24,16 +24,24 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
 
+import sys
+from typing import TYPE_CHECKING, Union
+
 import numpy as np
-import torch
+
+if TYPE_CHECKING:
+    import torch
 
 DETECTOR_SHAPES = ("flat", "curved")
-Array = np.ndarray | torch.Tensor  # the ray functions take and give either kind
+Array = Union[np.ndarray, "torch.Tensor"]  # the ray functions take and give either kind
 
 
 def _namespace(a):
-    """torch for tensors, numpy otherwise: both spell sin, cos, arctan, arcsin, stack alike."""
-    return torch if isinstance(a, torch.Tensor) else np
+    """torch for tensors, numpy otherwise: both spell sin, cos, arctan, arcsin, stack alike.
+    torch is never imported here: a tensor means the caller already has it (the config schemas,
+    which build geometries, stay importable without torch)."""
+    torch = sys.modules.get("torch")
+    return torch if torch is not None and isinstance(a, torch.Tensor) else np
 
 
 def _require(ok: bool, rule: str, got: object) -> None:
@@ -118,7 +126,7 @@ class Geometry(ABC):
         """
         xp = _namespace(angles)
         if u is None:
-            u = self.bin_positions if xp is np else torch.as_tensor(self.bin_positions).to(angles)
+            u = self.bin_positions if xp is np else xp.as_tensor(self.bin_positions).to(angles)
         phi, sigma = self.lines(angles, u)
         phi = phi + 0 * sigma  # broadcast both to [V, B]
         cos, sin = xp.cos(phi), xp.sin(phi)

@@ -90,7 +90,7 @@ class LossConf:
     tv_time: weight of mean |dg/dt|, g in field-of-view sides and t in gantry rotations.
     init_eikonal: weight of the Eikonal term in InitFit (Algorithm 3's lambda).
     The sinogram term is the L1 misfit relative to the data's mean |value|; InitFit's SDF term is
-    the L1 misfit in pixels.
+    the L1 misfit in pixels, inside and outside each object weighted equally (stages.balanced_l1).
     """
 
     name: str = "default"

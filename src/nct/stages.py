@@ -59,6 +59,18 @@ def eikonal_loss(gx: Tensor, gy: Tensor) -> Tensor:
     return ((gx.square() + gy.square() + 1e-12).sqrt() - 1).abs().mean()
 
 
+def balanced_l1(sdf: Tensor, targets: Tensor) -> Tensor:
+    """Mean |sdf - targets| with the inside (targets > 0) and the outside weighted equally, per
+    object: a small object's few inside pixels would otherwise lose to the background, and a
+    field negative everywhere (the object lost, with no gradient to bring it back) would fit well.
+    sdf, targets: [T, K, H, W]."""
+    err = (sdf - targets).abs()
+    inside = (targets > 0).to(err.dtype)
+    dims = (0, 2, 3)
+    parts = [(err * w).sum(dims) / w.sum(dims).clamp_min(1.0) for w in (inside, 1 - inside)]
+    return 0.5 * (parts[0] + parts[1]).mean()
+
+
 def band_at(step: int, steps: int, conf: RenderConf) -> float:
     """Occupancy ramp width in pixels at ``step`` of ``steps``: geometric from start to final."""
     span = conf.band_anneal * steps
@@ -98,7 +110,7 @@ class FieldStage(L.LightningModule):
 
 
 class InitFit(FieldStage):
-    """Algorithm 3: fit the field to SDF frames (L1 in pixels + init_eikonal x Eikonal).
+    """Algorithm 3: fit the field to SDF frames (balanced L1 in pixels + init_eikonal x Eikonal).
 
     targets: [T, K, H, W] SDF frames (physical units) at ``times`` [T] in rotations.
     """
@@ -112,7 +124,7 @@ class InitFit(FieldStage):
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         sdf, _ = self.grid_sdf(self.times[batch])
-        misfit = (sdf - self.targets[batch]).abs().mean() / self.grid.pixel_size
+        misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
         eikonal = eikonal_loss(*spatial_gradient(sdf, self.grid.pixel_size))
         loss = misfit + self.loss_conf.init_eikonal * eikonal
         self.log_dict({"train/sdf": misfit, "train/eikonal": eikonal, "train/loss": loss})
