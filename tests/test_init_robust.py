@@ -6,19 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nct.fields import ModelConf
 from nct.method import reconstruct
 from nct.metrics import dice
 from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
-from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.method_conf import LossConf
+from tiny_fits import INIT, MODEL, OPTIM, TRAINER
 
 GRID = ImageGrid(40)
-MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
-OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
-INIT = InitConf(frames_per_rotation=12)
 
 
 def orbit(radius: float, orbit_radius: float, deg: float, intensity: float) -> EllipseConf:

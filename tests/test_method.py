@@ -10,28 +10,19 @@ import pytest
 import torch
 
 from nct.errors import DivergenceError
-from nct.fields import ModelConf
 from nct.method import reconstruct, rotations_since_start, split_views
-from nct.phantoms import CircleConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram, Truth
-from nct.method_conf import InitConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.method_conf import LossConf, RenderConf
 from nct.stages import DivergenceCheck
+from tiny_fits import INIT, MODEL, OPTIM, TRAINER, moving_disc
 
 GRID = ImageGrid(32)
-MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
-OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
-INIT = InitConf(frames_per_rotation=12)
 
 
 @pytest.fixture(scope="module")
 def acquisition():
-    scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
-    phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=60.0), scanner.rotation_time)
-    times = scanner.frame_times(6)
-    return simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0)), times
+    return moving_disc(GRID)
 
 
 def run(sino, times, optim=OPTIM, seed=0, **kw):

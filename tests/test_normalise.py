@@ -2,33 +2,28 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from nct.errors import NoObjectError
-from nct.fields import ModelConf
 from nct.method import reconstruct
 from nct.metrics import frame_metrics
 from nct.normalise import Units
-from nct.phantoms import CircleConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram
-from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.method_conf import LossConf
+from tiny_fits import INIT, MODEL, TRAINER, moving_disc
+from tiny_fits import OPTIM as SHORT
 
-MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
-OPTIM = OptimConf(init_steps=40, fit_steps=60, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=30)
-INIT = InitConf(frames_per_rotation=12)
+OPTIM = replace(SHORT, init_steps=40, fit_steps=60, lr_decay_every=30)
 
 
 @pytest.fixture(scope="module")
 def scene():
     """A disc at 60 deg/rotation on a 32-pixel unit field of view, its sinogram and frame times."""
-    scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
-    phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=60.0), scanner.rotation_time)
-    times = scanner.frame_times(6)
-    return simulate(phantom, scanner, ImageGrid(32), times, None, np.random.default_rng(0)), times
+    return moving_disc()
 
 
 def rescaled(sino: Sinogram, length: float, intensity: float) -> Sinogram:

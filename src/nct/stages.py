@@ -29,7 +29,7 @@ from nct.fields import Field
 from nct.geometry import Geometry
 from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.progress import StageBar, log_stage, show_bar
-from nct.render import intensity, occupancy, project_frames
+from nct.render import intensity, project_frames
 from nct.scanner import ImageGrid
 
 @dataclass(frozen=True)

@@ -1,0 +1,25 @@
+"""Shared by the method tests: a tiny model and short fits, and a tiny moving-disc acquisition."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nct.fields import ModelConf
+from nct.method_conf import InitConf, OptimConf, TrainerConf
+from nct.phantoms import CircleConf, build_phantom
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
+from nct.sinogram import Sinogram
+
+MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
+INIT = InitConf(frames_per_rotation=12)
+
+
+def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
+    """A disc (radius 0.2) orbiting at 60 deg/rotation, 60 views of 32 bins, noiseless; and 6 frame times."""
+    scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
+    phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=60.0), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    return simulate(phantom, scanner, grid, times, None, np.random.default_rng(0)), times
