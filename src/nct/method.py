@@ -205,7 +205,7 @@ def reconstruct(
         }
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf.astype(np.float32), intensities=amplitudes.numpy(),
                      heldout_loss=_heldout(prob, fit), stages=stages, capacity=described,
-                     init={"route": seg.route, "background": seg.background * units.intensity,
+                     init={"route": seg.route, "smoothing_px": seg.smoothing_px, "background": seg.background * units.intensity,
                            "levels": [float(a) * units.intensity for a in seg.intensities],
                            "length_unit": units.length, "intensity_unit": units.intensity})
 

@@ -13,8 +13,9 @@ partial-volume classes.
 Where the mixture cannot separate K levels (a small or fast object seen in few pixels of the
 frames it was fitted on, a faint object beside a bright one, noise), the fallback route splits
 the foreground pixels of every frame (above `foreground_threshold`) into K classes by
-multi-level Otsu and takes each class's median as its level. Only when no pixel stands out of
-the background does segmentation fail, with `NoObjectError`.
+multi-level Otsu and takes each class's median as its level; where noise hides every object at
+the pixel scale, it looks again on frames smoothed at coarser scales (SMOOTHING_PX). Only when
+nothing stands out of the background at any scale does segmentation fail, with `NoObjectError`.
 
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
@@ -25,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 from skimage.filters import threshold_multiotsu
 from sklearn.mixture import GaussianMixture
 
@@ -34,17 +36,20 @@ from nct.method_conf import INIT_ROUTES
 SAME_LEVEL = 3.0
 NOISE_SIGMAS = 4.0  # foreground: this many noise deviations above the background ...
 MIN_CONTRAST = 0.05  # ... and at least this share of the brightest contrast (ripple of noiseless FBP)
+SMOOTHING_PX = (0.0, 1.0, 2.0, 4.0)  # scales (Gaussian sigma, pixels) at which the fallback looks for objects
 
 
 @dataclass(frozen=True)
 class Segmentation:
     """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level;
-    route: "gmm" (Algorithm 1) or "otsu" (the fallback); background: the background level."""
+    route: "gmm" (Algorithm 1) or "otsu" (the fallback); background: the background level;
+    smoothing_px: the Gaussian scale at which the fallback found the objects (0: none)."""
 
     masks: np.ndarray
     intensities: np.ndarray
     route: str = "gmm"
     background: float = 0.0
+    smoothing_px: float = 0.0
 
 
 def segment(
@@ -73,12 +78,38 @@ def segment(
         if levels is None and route == "gmm":
             raise NoObjectError(f"Algorithm 1 found fewer than n_objects = {n_objects} distinct intensity levels "
                                 "brighter than the background in the FBP frames (init.route=auto falls back to Otsu)")
-    chosen = "gmm" if levels is not None else "otsu"
+    chosen, smoothing = "gmm", 0.0
     if levels is None:
-        levels = otsu_levels(frames, n_objects)
+        chosen = "otsu"
+        frames, smoothing, noise = smoothed_until_found(frames, n_objects)
+        levels = otsu_levels(frames, n_objects, noise)
     nearest = np.argmin(np.abs(frames[..., None] - levels.astype(np.float32)), axis=-1)
     masks = np.stack([nearest == k + 1 for k in range(n_objects)], axis=1)
-    return Segmentation(masks=masks, intensities=levels[1:] - levels[0], route=chosen, background=float(levels[0]))
+    return Segmentation(masks=masks, intensities=levels[1:] - levels[0], route=chosen, background=float(levels[0]),
+                        smoothing_px=smoothing)
+
+
+def smoothed_until_found(frames: np.ndarray, n_objects: int) -> tuple[np.ndarray, float, float]:
+    """The frames at the finest of SMOOTHING_PX (Gaussian, in space only) at which K objects stand
+    out of the noise, that scale and the noise left at it: noise too heavy for single pixels can
+    still show an object at a coarser scale. The last scale when none holds them (otsu_levels
+    then says so)."""
+    sigma = noise_sigma(frames)
+    for px in SMOOTHING_PX:
+        smooth = gaussian_filter(frames, (0, px, px)) if px else frames
+        try:
+            otsu_levels(smooth, n_objects, smoothed_noise(sigma, px))
+        except NoObjectError:
+            continue
+        break
+    return smooth, px, smoothed_noise(sigma, px)
+
+
+def smoothed_noise(sigma: float, px: float) -> float:
+    """Noise deviation left after a Gaussian of ``px`` pixels, for white noise of deviation
+    ``sigma`` (FBP noise, ramp-filtered, loses more: this errs high, so on the safe side).
+    Measured on the smoothed frames themselves it would read far too low: their neighbours agree."""
+    return sigma if px == 0 else sigma / (2 * np.sqrt(np.pi) * px)
 
 
 def noise_sigma(frames: np.ndarray) -> float:
@@ -88,11 +119,13 @@ def noise_sigma(frames: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(diff - np.median(diff))) / np.sqrt(2))
 
 
-def foreground_threshold(frames: np.ndarray, background: float) -> float:
-    """The lowest level an object may have: NOISE_SIGMAS noise deviations above ``background``
-    and MIN_CONTRAST of the brightest contrast (the 99.9th percentile of the frames)."""
+def foreground_threshold(frames: np.ndarray, background: float, noise: float | None = None) -> float:
+    """The lowest level an object may have: NOISE_SIGMAS noise deviations (``noise``, default
+    measured on ``frames``) above ``background`` and MIN_CONTRAST of the brightest contrast (the
+    99.9th percentile of the frames)."""
     peak = float(np.percentile(frames, 99.9))
-    return background + max(NOISE_SIGMAS * noise_sigma(frames), MIN_CONTRAST * (peak - background))
+    noise = noise_sigma(frames) if noise is None else noise
+    return background + max(NOISE_SIGMAS * noise, MIN_CONTRAST * (peak - background))
 
 
 def mixture_levels(frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int,
@@ -125,11 +158,12 @@ def mixture_levels(frames: np.ndarray, n_objects: int, rng: np.random.Generator,
     return means[[background, *found]] if len(found) == n_objects else None
 
 
-def otsu_levels(frames: np.ndarray, n_objects: int) -> np.ndarray:
+def otsu_levels(frames: np.ndarray, n_objects: int, noise: float | None = None) -> np.ndarray:
     """The fallback: background (the median pixel) and K object levels [K + 1], brightest last,
-    from a multi-level Otsu split of the foreground pixels into K classes (class medians)."""
+    from a multi-level Otsu split of the foreground pixels into K classes (class medians).
+    ``noise``: the frames' noise deviation (default: measured on them)."""
     background = float(np.median(frames))
-    lowest = foreground_threshold(frames, background)
+    lowest = foreground_threshold(frames, background, noise)
     fg = frames[frames > lowest].astype(np.float64)
     if fg.size < len(frames) or np.unique(fg).size < max(2, n_objects):  # under a pixel a frame: noise
         raise NoObjectError(
