@@ -393,9 +393,11 @@ def accuracy_vs_time_figure(jobs: Sequence[Job]) -> Figure:
     fig = Figure(figsize=(6, 4), layout="constrained")
     ax = fig.subplots()
     done = finished(jobs)
-    ax.scatter([j.wall_time_s for j in done], [j.metric("nct.median_dice") for j in done], label="NCT")
+    ax.scatter([j.wall_time_s for j in done], [j.metric("nct.median_dice") for j in done],
+               label="NCT, labelled by job number")
     for job in done:
-        ax.annotate(str(job.num), (job.wall_time_s, job.metric("nct.median_dice")), fontsize=6)
+        ax.annotate(str(job.num), (job.wall_time_s, job.metric("nct.median_dice")), xytext=(3, 3),
+                    textcoords="offset points", fontsize=7)
     broken = [j for j in jobs if j.status != FINISHED and j.wall_time_s is not None]
     if broken:
         ax.scatter([j.wall_time_s for j in broken], [0.0] * len(broken), marker="x", color="red",
