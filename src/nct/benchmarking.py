@@ -9,7 +9,6 @@ A run that failed, diverged, timed out or scored NaN is a failure, never a resul
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -349,28 +348,3 @@ def extrapolate_time(run_time_s: float, stages: dict, steps: int, short_stages: 
                 per_step, fixed = slope, t - slope * n
         total += fixed + per_step * steps - t
     return total
-
-
-def write_csv(rows: Sequence[dict], path: Path) -> Path:
-    """``rows`` as CSV, columns in first-seen order."""
-    columns = list(dict.fromkeys(k for row in rows for k in row))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, columns)
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
-
-
-def fmt(value: object) -> str:
-    """A float to 3 significant digits (whole numbers from 1000), NaN as '–'; anything else as str."""
-    if isinstance(value, float):
-        return "–" if math.isnan(value) else f"{value:.0f}" if abs(value) >= 1000 else f"{value:.3g}"
-    return str(value)
-
-
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
-    """A GitHub markdown table of `fmt` cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]
-    return "\n".join(lines)

@@ -8,7 +8,6 @@ A failed, diverged, unfinished or missing job is a row like any other, with its 
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import shlex
@@ -20,6 +19,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 from omegaconf import DictConfig, OmegaConf
+
+from nct.tables import fmt, markdown_table, write_csv
 
 #: Config keys the plots know.
 DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX = "phantom.displacement_deg", "loss.tv_space", "loss.tv_time", "model.f_max"
@@ -270,17 +271,11 @@ def _union(dicts: Iterable[dict]) -> list[str]:
     return list(dict.fromkeys(k for d in dicts for k in d))
 
 
-def write_csv(jobs: Sequence[Job], path: Path) -> Path:
-    """One row per job; cells a job lacks are empty."""
-    columns = table_columns(jobs)
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, columns, restval="")
-        writer.writeheader()
-        for job in jobs:
-            row = {"job": "" if job.num is None else job.num, "status": job.status,
-                   "error": job.error or "", "wall_time_s": "" if job.wall_time_s is None else job.wall_time_s}
-            writer.writerow({**job.overrides, **job.metrics, **row})
-    return path
+def write_table(jobs: Sequence[Job], path: Path) -> Path:
+    """``report.csv``: one row per job (`table_columns`); cells a job lacks are empty."""
+    rows = [{**job.overrides, **job.metrics, "job": job.num, "status": job.status, "error": job.error,
+             "wall_time_s": job.wall_time_s} for job in jobs]
+    return write_csv(rows, path, table_columns(jobs))
 
 
 # ---------------------------------------------------------------- aggregates and plots
@@ -451,35 +446,25 @@ def write_plots(jobs: Sequence[Job], out_dir: Path) -> dict[str, Path]:
 # ---------------------------------------------------------------- summary
 
 
-def _fmt(value: float | None, digits: int = 3) -> str:
-    return "" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
-
-
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return lines + ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
-
-
 def _by_setting_section(jobs: Sequence[Job], key: str, title: str) -> list[str]:
     stats = [(m, s, f"{m.upper()} {name}") for s, name in SUMMARY_STATS for m in METHODS]
     aggs = [aggregate(jobs, key, f"{m}.{s}") for m, s, _ in stats]
     header = [key, "jobs ok", *(title for _, _, title in stats)]
     rows = [[f"{x:g}", str(aggs[0].n[i]),
              *(_mean_sd(a, i) for a in aggs)] for i, x in enumerate(aggs[0].x)]
-    return [f"## {title} (each job's median; {spread(aggs[0].n)})", "", *_md_table(header, rows), ""]
+    return [f"## {title} (each job's median; {spread(aggs[0].n)})", "", markdown_table(header, rows), ""]
 
 
 def _mean_sd(agg: Aggregate, i: int) -> str:
     """The mean, with ``± sd`` where there is a spread (two jobs or more)."""
-    if not np.isfinite(agg.mean[i]):
-        return ""
-    return _fmt(agg.mean[i]) + (f" ± {_fmt(agg.sd[i], 2)}" if np.isfinite(agg.sd[i]) else "")
+    spread_known = np.isfinite(agg.mean[i]) and np.isfinite(agg.sd[i])
+    return fmt(agg.mean[i]) + (f" ± {fmt(agg.sd[i], 2)}" if spread_known else "")
 
 
-def _tv_table(jobs: Sequence[Job]) -> list[str]:
+def _tv_table(jobs: Sequence[Job]) -> str:
     spaces, times, grid = tv_grid(jobs)
-    rows = [[f"{s:g}", *(_fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
-    return _md_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
+    rows = [[f"{s:g}", *(fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
+    return markdown_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
 
 
 def _first_line(error: str | None) -> str:
@@ -515,18 +500,18 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         pick = min(best, key=lambda j: j.metric("heldout_loss"))
         lines += [f"Lowest held-out sinogram loss (truth-free choice): job {pick.num} "
                   f"({_label(pick, varying) or 'no varying override'}), held-out loss "
-                  f"{_fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {_fmt(pick.metric('nct.median_dice'))}.", ""]
+                  f"{fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {fmt(pick.metric('nct.median_dice'))}.", ""]
     for key, title in ((DISPLACEMENT, "By displacement"), (F_MAX, "By F_max")):
         if len(distinct(jobs, key)) > 1:
             lines += _by_setting_section(jobs, key, title)
     if "tv_grid" in plots:
-        lines += ["## NCT median Dice on the TV grid (rows: TV space, columns: TV time)", "", *_tv_table(jobs), ""]
+        lines += ["## NCT median Dice on the TV grid (rows: TV space, columns: TV time)", "", _tv_table(jobs), ""]
     header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in SUMMARY_STATS for m in METHODS),
               "held-out loss", "wall s"]
     rows = [[str(j.num), *(_short(j.overrides.get(k, "")) for k in varying), j.status,
-             *(_fmt(j.metric(f"{m}.{s}")) for s, _ in SUMMARY_STATS for m in METHODS),
-             _fmt(j.metric("heldout_loss"), 4), _fmt(j.wall_time_s, 3)] for j in jobs]
-    lines += ["## Jobs", "", *_md_table(header, rows), ""]
+             *(j.metric(f"{m}.{s}") for s, _ in SUMMARY_STATS for m in METHODS),
+             fmt(j.metric("heldout_loss"), 4), j.wall_time_s] for j in jobs]
+    lines += ["## Jobs", "", markdown_table(header, rows), ""]
     broken = [j for j in jobs if j.status != FINISHED or j.error]
     lines += ["## Failed, diverged, unfinished or missing", ""]
     lines += [f"- job {j.num} ({_label(j, varying) or 'no varying override'}): **{j.status}**: "
@@ -552,7 +537,7 @@ def write_report(sweep_dir: Path, out_dir: Path | None = None) -> Report:
     jobs = collect_jobs(sweep_dir)
     out_dir = Path(out_dir) if out_dir is not None else sweep_dir / "report"
     out_dir.mkdir(parents=True, exist_ok=True)
-    table = write_csv(jobs, out_dir / "report.csv")
+    table = write_table(jobs, out_dir / "report.csv")
     plots = write_plots(jobs, out_dir)
     summary = out_dir / "summary.md"
     summary.write_text("\n".join(summary_lines(sweep_dir, jobs, plots)))
