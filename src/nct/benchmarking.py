@@ -25,6 +25,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from nct.metrics import DICE_GOOD
+from nct.outcome import FINISHED, UNFINISHED, read_outcome
 
 BENCH_FILE = "bench.json"
 RETRIED = ("failed", "timeout")  # statuses that ``resume`` runs again (crashes, not the method's own verdict)
@@ -92,14 +93,16 @@ class Record:
 
 
 def read_run(run_dir: Path, method: str) -> dict:
-    """Status, error and scores of a finished run folder, as `Record` fields; no status.json: failed."""
-    status_path = run_dir / "status.json"
-    if not status_path.is_file():
-        return {"status": "failed", "error": _log_error(run_dir / LOG_FILE) or "no status.json written"}
-    status = json.loads(status_path.read_text())
-    if status.get("status") != "ok":
-        return {"status": status.get("status", "failed"), "error": status.get("error")}
-    metrics = json.loads((run_dir / "metrics.json").read_text())
+    """Status, error and scores of a finished run folder (`read_outcome`), as `Record` fields; a run
+    that left no readable status.json failed, with the end of its log as the error."""
+    outcome = read_outcome(run_dir)
+    if outcome.status == UNFINISHED:
+        return {"status": "failed", "error": _log_error(run_dir / LOG_FILE) or outcome.error}
+    if outcome.status != FINISHED:
+        return {"status": outcome.status, "error": outcome.error}
+    metrics = outcome.metrics
+    if metrics is None:
+        return {"status": "invalid", "error": outcome.error}
     summary = metrics.get(method)
     if summary is None:
         return {"status": "invalid", "error": f"metrics.json has no '{method}' summary (no ground truth?)"}

@@ -8,7 +8,6 @@ A failed, diverged, unfinished or missing job is a row like any other, with its 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shlex
 import sys
@@ -20,6 +19,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from omegaconf import DictConfig, OmegaConf
 
+from nct.outcome import FINISHED, read_outcome
 from nct.tables import fmt, markdown_table, write_csv
 
 #: Config keys the plots know.
@@ -27,7 +27,6 @@ DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX = "phantom.displacement_deg", "loss.tv_sp
 PLOTTED_KEYS = (DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX)
 METHODS = ("fbp", "nct")
 SUMMARY_STATS = (("median_dice", "Dice"), ("median_mse", "MSE"))  # per-job summaries the plots show
-FINISHED = "ok"
 
 
 class ReportError(ValueError):
@@ -102,31 +101,17 @@ def collect_jobs(sweep_dir: Path) -> list[Job]:
 
 
 def read_job(job_dir: Path) -> Job:
-    """One job folder: overrides, status (``unfinished`` without status.json), error, metrics."""
+    """One job folder: overrides, its `read_outcome` (status, error, wall time) and flattened metrics."""
     hydra_dir = job_dir / ".hydra"
     overrides = _parse_overrides(_load_yaml_list(hydra_dir / "overrides.yaml"))
     num = _job_num(hydra_dir / "hydra.yaml")
-    status = _load_json(job_dir / "status.json")
-    if status is None:
-        state, error, wall = "unfinished", "no status.json: never started, or killed before it began", None
-    elif isinstance(status, str):
-        state, error, wall = "unfinished", status, None
-    else:
-        state = str(status.get("status", "unfinished"))
-        error = status.get("error")
-        wall = _number(status.get("wall_time_s"))
-        if state == "running":
-            error = error or "status running: still running, or interrupted"
-    metrics: dict[str, float | str] = {}
-    if state == FINISHED:
-        loaded = _load_json(job_dir / "metrics.json")
-        if isinstance(loaded, dict):
-            metrics = flatten_metrics(loaded)
-            wall = wall if wall is not None else _number(loaded.get("wall_time_s"))
-        else:
-            error = "metrics.json missing or unreadable" + (f": {loaded}" if loaded else "")
+    outcome = read_outcome(job_dir)
+    metrics = flatten_metrics(outcome.metrics) if outcome.metrics is not None else {}
+    wall = outcome.wall_time_s
+    if wall is None and outcome.metrics is not None:
+        wall = _number(outcome.metrics.get("wall_time_s"))
     settings = _settings(_load_yaml(hydra_dir / "config.yaml"), overrides)
-    return Job(num, overrides, state, error, wall, metrics, settings, job_dir)
+    return Job(num, overrides, outcome.status, outcome.error, wall, metrics, settings, job_dir)
 
 
 def missing_jobs(plan: DictConfig, found: set[int | None]) -> list[Job]:
@@ -235,17 +220,6 @@ def _load_yaml_list(path: Path) -> list[str]:
     except Exception:
         return []
     return [str(x) for x in loaded] if not isinstance(loaded, DictConfig) else []
-
-
-def _load_json(path: Path) -> dict | str | None:
-    """The parsed file; None when absent; the error as a string when unreadable."""
-    if not path.is_file():
-        return None
-    try:
-        loaded = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        return f"unreadable {path.name}: {err}"
-    return loaded if isinstance(loaded, dict) else f"unreadable {path.name}: not a JSON object"
 
 
 def _number(value: object) -> float | None:
