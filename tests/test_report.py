@@ -138,9 +138,12 @@ def test_tv_grid_heat_map(tmp_path: Path):
         make_job(sweep, num, [f"loss.tv_space={s}", f"loss.tv_time={t}"],
                  {"status": "ok", "error": None, "wall_time_s": 5.0}, ok_metrics(0.5 + 0.1 * num, 0.4, 5.0))
     report = write_report(sweep)
-    spaces, times, grid = tv_grid(report.jobs)
+    spaces, times, grid, counts = tv_grid(report.jobs)
     assert spaces == [0.0, 1.0] and times == [0.0, 1.0]
     np.testing.assert_allclose(grid, [[0.5, 0.6], [0.7, np.nan]])
+    np.testing.assert_array_equal(counts, [[1, 1], [1, 0]])
+    assert figures(report.jobs)["tv_grid"].axes[0].get_title() == "NCT median Dice: one job per setting"
+    assert "## NCT median Dice on the TV grid (one job per setting; rows: TV space" in report.summary.read_text()
     assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
     assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
 

@@ -286,13 +286,14 @@ def aggregate(jobs: Sequence[Job], key: str, metric: str) -> Aggregate:
     return Aggregate(np.array(xs), np.array([g.size for g in groups]), mean, sd)
 
 
-def spread(n: np.ndarray) -> str:
-    """What a point of an `Aggregate` with job counts ``n`` [X] is: one job's value, or a mean ± sd over jobs."""
+def spread(n: np.ndarray, stat: str = "mean ± sd") -> str:
+    """What a value shown per setting is, given the number of jobs ``n`` behind each: one job's value,
+    or ``stat`` over several (settings with no job left out)."""
     n = n[n > 0]
     if n.size == 0 or n.max() == 1:
         return "one job per setting"
     jobs = f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
-    return f"mean ± sd over {jobs} jobs per setting"
+    return f"{stat} over {jobs} jobs per setting"
 
 
 def log_scale_fits(values: Sequence[float]) -> bool:
@@ -324,23 +325,26 @@ def metrics_vs_figure(jobs: Sequence[Job], key: str, label: str) -> Figure:
     return fig
 
 
-def tv_grid(jobs: Sequence[Job], metric: str = "nct.median_dice") -> tuple[list[float], list[float], np.ndarray]:
-    """Mean ``metric`` on the TV-space x TV-time grid: (space values, time values, [S,T], NaN: no job)."""
+def tv_grid(jobs: Sequence[Job], metric: str = "nct.median_dice"
+            ) -> tuple[list[float], list[float], np.ndarray, np.ndarray]:
+    """Mean ``metric`` on the TV-space x TV-time grid: (space values, time values, mean [S,T] (NaN: no
+    job), number of jobs averaged [S,T])."""
     spaces, times = distinct(jobs, TV_SPACE), distinct(jobs, TV_TIME)
     grid = np.full((len(spaces), len(times)), np.nan)
+    counts = np.zeros((len(spaces), len(times)), dtype=int)
     for i, s in enumerate(spaces):
         for k, t in enumerate(times):
             values = [j.metric(metric) for j in finished(jobs)
                       if j.settings.get(TV_SPACE) == s and j.settings.get(TV_TIME) == t]
             values = [v for v in values if math.isfinite(v)]
             if values:
-                grid[i, k] = float(np.mean(values))
-    return spaces, times, grid
+                grid[i, k], counts[i, k] = float(np.mean(values)), len(values)
+    return spaces, times, grid, counts
 
 
 def tv_grid_figure(jobs: Sequence[Job]) -> Figure:
     """Heat map of NCT median Dice over TV-space (rows) x TV-time (columns) weights (paper Fig. 3 top)."""
-    spaces, times, grid = tv_grid(jobs)
+    spaces, times, grid, counts = tv_grid(jobs)
     fig = Figure(figsize=(max(4.5, 2.0 + 0.6 * len(times)), max(3.5, 1.5 + 0.45 * len(spaces))),
                  layout="constrained")
     ax = fig.subplots()
@@ -354,6 +358,7 @@ def tv_grid_figure(jobs: Sequence[Job]) -> Figure:
             ax.text(k, i, f"{value:.2f}", ha="center", va="center", fontsize=7,
                     color="black" if value > 0.6 else "white")
     fig.colorbar(image, ax=ax, label="NCT median Dice")
+    ax.set_title(f"NCT median Dice: {spread(counts.ravel(), 'mean')}", fontsize=9)
     return fig
 
 
@@ -436,7 +441,7 @@ def _mean_sd(agg: Aggregate, i: int) -> str:
 
 
 def _tv_table(jobs: Sequence[Job]) -> str:
-    spaces, times, grid = tv_grid(jobs)
+    spaces, times, grid, _ = tv_grid(jobs)
     rows = [[f"{s:g}", *(fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
     return markdown_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
 
@@ -479,7 +484,9 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         if len(distinct(jobs, key)) > 1:
             lines += _by_setting_section(jobs, key, title)
     if "tv_grid" in plots:
-        lines += ["## NCT median Dice on the TV grid (rows: TV space, columns: TV time)", "", _tv_table(jobs), ""]
+        counts = tv_grid(jobs)[3]
+        lines += [f"## NCT median Dice on the TV grid ({spread(counts.ravel(), 'mean')}; rows: TV space, "
+                  "columns: TV time)", "", _tv_table(jobs), ""]
     header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in SUMMARY_STATS for m in METHODS),
               "held-out loss", "wall s"]
     rows = [[str(j.num), *(_short(j.overrides.get(k, "")) for k in varying), j.status,
