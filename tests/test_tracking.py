@@ -104,3 +104,4 @@ def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     assert session.Scalars("hp/n_terms")[0].value == capacity["n_terms"]
     text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
     assert capacity["choice"]["reason"] in text and "grid field" in text
+    assert "| terms | held-out loss | parameters |\n|---|---|---|\n| 0 | " in text

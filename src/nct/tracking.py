@@ -19,6 +19,8 @@ from omegaconf import DictConfig, OmegaConf
 from tensorboard.plugins.hparams.summary_v2 import hparams_pb
 from torch.utils.tensorboard import SummaryWriter
 
+from nct.tables import fmt, markdown_table
+
 #: Config keys that name a run in the HParams tab whatever its overrides: what was reconstructed, how.
 IDENTITY_KEYS = ("method", "data.name", "data.path", "phantom.name", "model.name", "seed")
 #: Where `write_hparams` puts the session, below the run's ``tb/``.
@@ -83,9 +85,9 @@ def write_capacity(tb_dir: Path, capacity: dict) -> None:
     choice = capacity.get("choice")
     with SummaryWriter(log_dir=str(tb_dir)) as w:
         if choice:
-            lines.append(f"chosen automatically: {choice['reason']}")
-            lines += ["", "| terms | held-out loss | parameters |", "|---|---|---|"]
+            rows = [[r["n_terms"], fmt(r["heldout_loss"], 5), r["n_params"]] for r in choice["ladder"]]
+            lines += [f"chosen automatically: {choice['reason']}", "",
+                      markdown_table(["terms", "held-out loss", "parameters"], rows)]
             for rung in choice["ladder"]:
-                lines.append(f"| {rung['n_terms']} | {rung['heldout_loss']:.5g} | {rung['n_params']} |")
                 w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
         w.add_text("capacity", "\n".join(lines))
