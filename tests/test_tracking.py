@@ -39,13 +39,13 @@ def session_hparams(run_dir: Path) -> dict:
 def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, run_dir):
     """A NeuralCT run whose stages log ``epoch``: the HParams tab lists only the overrides, the identifying
     keys and the ``hp/*`` metrics; a boolean stays a boolean."""
-    overrides = ["method=nct", "phantom.displacement_deg=40", "trainer.refine=false", "trainer.log_every_n_steps=1",
+    overrides = ["method=nct", "phantom.displacement_deg=40", "export.tiff=false", "trainer.log_every_n_steps=1",
                  "capacity.ladder=[0,4]", "export.gif=false", "hydra/launcher=basic", "resume=false"]
     run_job(tiny_cfg(*overrides), run_dir, overrides)
     values = session_hparams(run_dir)
-    assert set(values) == IDENTITY | {"phantom.displacement_deg", "trainer.refine", "trainer.log_every_n_steps",
+    assert set(values) == IDENTITY | {"phantom.displacement_deg", "export.tiff", "trainer.log_every_n_steps",
                                       "capacity.ladder", "export.gif"}
-    assert values["trainer.refine"] is False and values["export.gif"] is False
+    assert values["export.tiff"] is False and values["export.gif"] is False
     assert values["phantom.displacement_deg"] == 40.0 and values["seed"] == 0.0
     assert values["capacity.ladder"] == "[0, 4]" and values["method"] == "nct" and values["phantom.name"] == "circle"
 
@@ -57,7 +57,7 @@ def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, 
         "hp/fbp_median_dice", "hp/fbp_median_mse", "hp/nct_median_dice", "hp/nct_median_mse", "hp/heldout_loss",
         "hp/wall_time_s", "hp/n_terms", "hp/n_params"}
     types = {h.name: h.type for h in tab.hparam_infos}
-    assert types["trainer.refine"] == api_pb2.DATA_TYPE_BOOL and types["seed"] == api_pb2.DATA_TYPE_FLOAT64
+    assert types["export.tiff"] == api_pb2.DATA_TYPE_BOOL and types["seed"] == api_pb2.DATA_TYPE_FLOAT64
     acc = EventAccumulator(str(run_dir / "tb" / "hparams"))
     acc.Reload()
     assert 0.3 < acc.Scalars("hp/fbp_median_dice")[0].value <= 1.0
@@ -80,9 +80,9 @@ def test_swept_key_comes_first_in_the_tab(tiny_cfg, tmp_path):
 def test_run_hparams_types_and_leaves_out_hydra_and_deletions(tiny_cfg):
     cfg = tiny_cfg("model=grid", "data.noise_i0=1e5")
     values = run_hparams(cfg, ["model=grid", "+phantom.extra=2.5", "data.noise_i0=null", "~threads",
-                               "hydra.verbose=true", "hydra/launcher=basic", "trainer.refine=true"])
+                               "hydra.verbose=true", "hydra/launcher=basic", "export.png=true"])
     assert values == {"method": "nct", "data.name": "simulate", "phantom.name": "circle", "model.name": "grid",
-                      "seed": 0, "model": "grid", "phantom.extra": 2.5, "data.noise_i0": "null", "trainer.refine": True}
+                      "seed": 0, "model": "grid", "phantom.extra": 2.5, "data.noise_i0": "null", "export.png": True}
     assert list(values)[:5] == ["method", "data.name", "phantom.name", "model.name", "seed"]
 
 
