@@ -25,10 +25,11 @@ import numpy as np  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
 from nct.benchmarking import (  # noqa: E402
-    QUIET, Job, Record, benchmark_parser, default_config, extrapolate_time, fmt, group, markdown_table, median_ok,
-    pareto_front, positive_int, run_jobs, scaled_steps, seed_stats, stage_steps, write_csv,
+    QUIET, Job, Record, benchmark_parser, default_config, extrapolate_time, group, median_ok, pareto_front,
+    positive_int, run_jobs, scaled_steps, seed_stats, stage_steps,
 )
 from nct.metrics import DICE_GOOD  # noqa: E402
+from nct.tables import fmt, markdown_table, write_csv  # noqa: E402
 
 SCENES: dict[str, tuple[str, ...]] = {
     "circle_40": ("experiment=circle", "phantom.displacement_deg=40"),

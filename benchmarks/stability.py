@@ -24,10 +24,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
 from nct.benchmarking import (  # noqa: E402
-    QUIET, Job, Record, benchmark_parser, breakdown_point, default_config, group, markdown_table, median_ok,
-    run_jobs, scaled_steps, seed_stats, write_csv,
+    QUIET, Job, Record, benchmark_parser, breakdown_point, default_config, group, median_ok, run_jobs,
+    scaled_steps, seed_stats,
 )
 from nct.metrics import DICE_GOOD  # noqa: E402
+from nct.tables import markdown_table, write_csv  # noqa: E402
 
 METHODS = ("fbp", "nct")
 QUICK_DATA = ("image.size=64", "scanner.n_bins=64")  # --quick: a quarter of the pixels, for both methods

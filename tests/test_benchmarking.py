@@ -13,8 +13,8 @@ import pytest
 from omegaconf import OmegaConf
 
 from nct.benchmarking import (
-    LOG_FILE, Job, Record, breakdown_point, extrapolate_time, markdown_table, pareto_front, read_run, run_jobs,
-    save_record, seed_stats,
+    LOG_FILE, Job, Record, breakdown_point, extrapolate_time, pareto_front, read_run, run_jobs, save_record,
+    seed_stats,
 )
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -116,11 +116,6 @@ def test_resume_reuses_finished_records_and_a_rerun_needs_it(tmp_path):
     assert (record.status, record.dice, record.wall_time_s) == ("ok", 0.7, 5.0)
     save_record(Record(job, "diverged", error="loss exploded"))
     assert run_jobs([job], resume=True, progress=lambda line: None)[0].error == "loss exploded"
-
-
-def test_markdown_table_formats_numbers():
-    assert markdown_table(["a", "b"], [["x", 0.123456], ["y", math.nan], ["z", 12345.6]]).splitlines() == [
-        "| a | b |", "|---|---|", "| x | 0.123 |", "| y | – |", "| z | 12346 |"]
 
 
 def test_speed_configs_follow_the_configured_steps(tmp_path):

@@ -8,13 +8,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 from omegaconf import OmegaConf
 
 from nct.report import (
     Job,
     aggregate,
     collect_jobs,
+    figures,
     flatten_metrics,
+    heldout_vs_dice_figure,
     main,
     planned_overrides,
     tv_grid,
@@ -134,9 +138,12 @@ def test_tv_grid_heat_map(tmp_path: Path):
         make_job(sweep, num, [f"loss.tv_space={s}", f"loss.tv_time={t}"],
                  {"status": "ok", "error": None, "wall_time_s": 5.0}, ok_metrics(0.5 + 0.1 * num, 0.4, 5.0))
     report = write_report(sweep)
-    spaces, times, grid = tv_grid(report.jobs)
+    spaces, times, grid, counts = tv_grid(report.jobs)
     assert spaces == [0.0, 1.0] and times == [0.0, 1.0]
     np.testing.assert_allclose(grid, [[0.5, 0.6], [0.7, np.nan]])
+    np.testing.assert_array_equal(counts, [[1, 1], [1, 0]])
+    assert figures(report.jobs)["tv_grid"].axes[0].get_title() == "NCT median Dice: one job per setting"
+    assert "## NCT median Dice on the TV grid (one job per setting; rows: TV space" in report.summary.read_text()
     assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
     assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
 
@@ -194,3 +201,64 @@ def test_main_writes_to_out(displacement_sweep: Path, tmp_path: Path, capsys):
     assert main([str(displacement_sweep), "--out", str(tmp_path / "o")]) == 0
     assert (tmp_path / "o" / "report.csv").is_file() and (tmp_path / "o" / "summary.md").is_file()
     assert "9 jobs (3 not ok)" in capsys.readouterr().out
+
+
+def sweep_with_seeds(root: Path, n_seeds: int) -> Path:
+    """displacement {0, 100} x ``n_seeds`` seeds, all ok."""
+    sweep = make_sweep(root, {"phantom.displacement_deg": "0,100", "seed": ",".join(map(str, range(n_seeds)))}, [])
+    for num in range(2 * n_seeds):
+        disp, seed = (0, 100)[num // n_seeds], num % n_seeds
+        nct = 0.9 - disp / 1000 + 0.01 * seed
+        make_job(sweep, num, [f"phantom.displacement_deg={disp}", f"seed={seed}"],
+                 {"status": "ok", "error": None, "wall_time_s": 5.0}, ok_metrics(nct, nct - 0.3, 5.0))
+    return sweep
+
+
+@pytest.mark.parametrize(("n_seeds", "shown"), [(1, "one job per setting"),
+                                                (3, "mean ± sd over 3 jobs per setting")])
+def test_legends_and_summary_say_what_is_shown(tmp_path: Path, n_seeds: int, shown: str):
+    """One seed: each point is one job, with no spread to speak of; several: their mean ± sd."""
+    jobs = collect_jobs(sweep_with_seeds(tmp_path / "s", n_seeds))
+    fig = figures(jobs)["displacement"]
+    assert [ax.get_legend().get_title().get_text() for ax in fig.axes] == [shown, shown]
+    text = write_report(tmp_path / "s").summary.read_text()
+    assert f"## By displacement (each job's median; {shown})" in text
+    assert ("±" in text) == (n_seeds > 1)
+    assert np.isnan(aggregate(jobs, "phantom.displacement_deg", "nct.median_dice").sd).all() == (n_seeds == 1)
+
+
+def overlapping_tick_labels(fig: Figure) -> list[tuple[str, str]]:
+    """Pairs of neighbouring visible tick labels on any axis of ``fig`` whose drawn boxes overlap."""
+    fig.canvas = FigureCanvasAgg(fig)
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    pairs = []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            labels = [t for t in axis.get_ticklabels(minor=False) + axis.get_ticklabels(minor=True)
+                      if t.get_visible() and t.get_text()]
+            boxes = sorted(((t.get_window_extent(renderer), t.get_text()) for t in labels),
+                           key=lambda b: (b[0].x0, b[0].y0))
+            pairs += [(a[1], b[1]) for a, b in zip(boxes, boxes[1:]) if a[0].overlaps(b[0])]
+    return pairs
+
+
+@pytest.mark.parametrize("span", [1.27, 16, 150, 1e6])
+def test_heldout_vs_dice_tick_labels_do_not_overlap(span: float):
+    """Held-out losses over a narrow range (a fifth of a decade) up to six decades."""
+    losses = np.geomspace(1.1e-3, 1.1e-3 * span, 9)
+    jobs = [Job(i, {}, "ok", metrics={"heldout_loss": x, "nct.median_dice": 0.9 - 0.01 * i})
+            for i, x in enumerate(losses)]
+    fig = heldout_vs_dice_figure(jobs)
+    assert overlapping_tick_labels(fig) == []
+    assert fig.axes[0].get_xscale() == ("log" if span >= 100 else "linear")
+    assert len([t for t in fig.axes[0].get_xticklabels() if t.get_text()]) >= 2
+
+
+def test_help_is_plain_text(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    assert "`" not in text and "**" not in text and ":func:" not in text
+    assert "report.csv" in text and "summary.md" in text and "--out" in text

@@ -1,38 +1,93 @@
-"""TensorBoard: the HParams session carries the run's settings and real final metrics."""
+"""TensorBoard: the HParams session carries the run's overrides, a few identifying keys and real final metrics."""
 
-import numpy as np
+import json
+from pathlib import Path
+
+from tensorboard import context
+from tensorboard.backend.event_processing import data_provider, plugin_event_multiplexer
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-from tensorboard.plugins.hparams import plugin_data_pb2
+from tensorboard.plugins import base_plugin
+from tensorboard.plugins.hparams import api_pb2, backend_context, plugin_data_pb2
 
 from nct.pipeline import run_job
-from nct.tracking import flat_hparams
+from nct.tracking import run_hparams
+
+IDENTITY = {"method", "data.name", "phantom.name", "model.name", "seed"}
 
 
-def test_hparams_hold_settings_and_metrics(tiny_cfg, run_dir):
-    cfg = tiny_cfg("method=fbp", "phantom.displacement_deg=40", "export.gif=false")
-    run_job(cfg, run_dir)
-    acc = EventAccumulator(str(run_dir / "tb"))
+def hparams_tab(logdir: Path) -> api_pb2.Experiment:
+    """The experiment TensorBoard's HParams plugin builds for ``logdir``: its columns (hparams, metrics)."""
+    mux = plugin_event_multiplexer.EventMultiplexer()
+    mux.AddRunsFromDirectory(str(logdir))
+    mux.Reload()
+    provider = data_provider.MultiplexerDataProvider(mux, str(logdir))
+    backend = backend_context.Context(base_plugin.TBContext(logdir=str(logdir), multiplexer=mux,
+                                                            data_provider=provider))
+    ctx = context.RequestContext()
+    return backend.experiment_from_metadata(ctx, "", True, backend.hparams_metadata(ctx, ""),
+                                            backend.hparams_from_data_provider(ctx, "", 0))
+
+
+def session_hparams(run_dir: Path) -> dict:
+    acc = EventAccumulator(str(run_dir / "tb" / "hparams"))
     acc.Reload()
-    dice = acc.Scalars("hp/fbp_median_dice")[0].value
-    assert 0.3 < dice <= 1.0
-    content = acc.PluginTagToContent("hparams")
-    start = plugin_data_pb2.HParamsPluginData.FromString(content["_hparams_/session_start_info"]).session_start_info
-    assert start.hparams["phantom.displacement_deg"].number_value == 40.0
-    assert start.hparams["method"].string_value == "fbp"
-    assert acc.Tags()["images"], "no image grids written"
+    content = acc.PluginTagToContent("hparams")["_hparams_/session_start_info"]
+    start = plugin_data_pb2.HParamsPluginData.FromString(content).session_start_info
+    return {k: getattr(v, v.WhichOneof("kind")) for k, v in start.hparams.items()}
 
 
-def test_flat_hparams_flattens_nested_config(tiny_cfg):
-    flat = flat_hparams(tiny_cfg())
-    assert flat["scanner.n_bins"] == 32 and flat["data.noise_i0"] == "None"
-    assert all(isinstance(v, (bool, int, float, str)) for v in flat.values())
-    assert np.isfinite(flat["loss.tv_space"])
+def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, run_dir):
+    """A NeuralCT run whose stages log ``epoch``: the HParams tab lists only the overrides, the identifying
+    keys and the ``hp/*`` metrics; a boolean stays a boolean."""
+    overrides = ["method=nct", "phantom.displacement_deg=40", "export.tiff=false", "trainer.log_every_n_steps=1",
+                 "capacity.ladder=[0,4]", "export.gif=false", "hydra/launcher=basic", "resume=false"]
+    run_job(tiny_cfg(*overrides), run_dir, overrides)
+    values = session_hparams(run_dir)
+    assert set(values) == IDENTITY | {"phantom.displacement_deg", "export.tiff", "trainer.log_every_n_steps",
+                                      "capacity.ladder", "export.gif"}
+    assert values["export.tiff"] is False and values["export.gif"] is False
+    assert values["phantom.displacement_deg"] == 40.0 and values["seed"] == 0.0
+    assert values["capacity.ladder"] == "[0, 4]" and values["method"] == "nct" and values["phantom.name"] == "circle"
+
+    stage = EventAccumulator(str(run_dir / "tb" / "init"))
+    stage.Reload()
+    assert "epoch" in stage.Tags()["scalars"]  # Lightning logs it per stage: the tab must not list it
+    tab = hparams_tab(run_dir)
+    assert {m.name.tag for m in tab.metric_infos} == {
+        "hp/fbp_median_dice", "hp/fbp_median_mse", "hp/nct_median_dice", "hp/nct_median_mse", "hp/heldout_loss",
+        "hp/wall_time_s", "hp/n_terms", "hp/n_params"}
+    types = {h.name: h.type for h in tab.hparam_infos}
+    assert types["export.tiff"] == api_pb2.DATA_TYPE_BOOL and types["seed"] == api_pb2.DATA_TYPE_FLOAT64
+    acc = EventAccumulator(str(run_dir / "tb" / "hparams"))
+    acc.Reload()
+    assert 0.3 < acc.Scalars("hp/fbp_median_dice")[0].value <= 1.0
+    frames = EventAccumulator(str(run_dir / "tb"))
+    frames.Reload()
+    assert frames.Tags()["images"], "no image grids written"
+
+
+def test_swept_key_comes_first_in_the_tab(tiny_cfg, tmp_path):
+    """Two runs side by side: the key whose value differs leads the table (TensorBoard sorts it first)."""
+    for name, disp in (("a", 20), ("b", 60)):
+        overrides = ["method=fbp", f"phantom.displacement_deg={disp}", "export.gif=false", "export.tiff=false"]
+        run_job(tiny_cfg(*overrides), tmp_path / name, overrides)
+    tab = hparams_tab(tmp_path)
+    assert [(h.name, h.differs) for h in tab.hparam_infos][:2] == [("phantom.displacement_deg", True),
+                                                                     ("data.name", False)]
+    assert tab.hparam_infos[0].domain_interval.min_value == 20 and tab.hparam_infos[0].domain_interval.max_value == 60
+
+
+def test_run_hparams_types_and_leaves_out_hydra_and_deletions(tiny_cfg):
+    cfg = tiny_cfg("model=grid", "data.noise_i0=1e5")
+    values = run_hparams(cfg, ["model=grid", "+phantom.extra=2.5", "data.noise_i0=null", "~threads",
+                               "hydra.verbose=true", "hydra/launcher=basic", "export.png=true"])
+    assert values == {"method": "nct", "data.name": "simulate", "phantom.name": "circle", "model.name": "grid",
+                      "seed": 0, "model": "grid", "phantom.extra": 2.5, "data.noise_i0": "null", "export.png": True}
+    assert list(values)[:5] == ["method", "data.name", "phantom.name", "model.name", "seed"]
 
 
 def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     """capacity=auto: metrics.json and TensorBoard both say which rungs were fitted and why one was kept."""
-    import json
-
     cfg = tiny_cfg("capacity=auto", "capacity.ladder=[0,4]", "model=grid", "model.resolution=32",
                    "model.temporal_resolution=8", "export.gif=false", "optim.init_steps=20", "optim.fit_steps=20")
     run_job(cfg, run_dir)
@@ -44,6 +99,9 @@ def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     acc.Reload()
     assert [(e.step, round(e.value, 6)) for e in acc.Scalars("capacity/heldout_loss")] == [
         (r["n_terms"], round(r["heldout_loss"], 6)) for r in ladder]
-    assert acc.Scalars("hp/n_terms")[0].value == capacity["n_terms"]
+    session = EventAccumulator(str(run_dir / "tb" / "hparams"))
+    session.Reload()
+    assert session.Scalars("hp/n_terms")[0].value == capacity["n_terms"]
     text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
     assert capacity["choice"]["reason"] in text and "grid field" in text
+    assert "| terms | held-out loss | parameters |\n|---|---|---|\n| 0 | " in text

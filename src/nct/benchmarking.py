@@ -9,7 +9,6 @@ A run that failed, diverged, timed out or scored NaN is a failure, never a resul
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -26,6 +25,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from nct.metrics import DICE_GOOD
+from nct.outcome import FINISHED, UNFINISHED, read_outcome
 
 BENCH_FILE = "bench.json"
 RETRIED = ("failed", "timeout")  # statuses that ``resume`` runs again (crashes, not the method's own verdict)
@@ -93,14 +93,16 @@ class Record:
 
 
 def read_run(run_dir: Path, method: str) -> dict:
-    """Status, error and scores of a finished run folder, as `Record` fields; no status.json: failed."""
-    status_path = run_dir / "status.json"
-    if not status_path.is_file():
-        return {"status": "failed", "error": _log_error(run_dir / LOG_FILE) or "no status.json written"}
-    status = json.loads(status_path.read_text())
-    if status.get("status") != "ok":
-        return {"status": status.get("status", "failed"), "error": status.get("error")}
-    metrics = json.loads((run_dir / "metrics.json").read_text())
+    """Status, error and scores of a finished run folder (`read_outcome`), as `Record` fields; a run
+    that left no readable status.json failed, with the end of its log as the error."""
+    outcome = read_outcome(run_dir)
+    if outcome.status == UNFINISHED:
+        return {"status": "failed", "error": _log_error(run_dir / LOG_FILE) or outcome.error}
+    if outcome.status != FINISHED:
+        return {"status": outcome.status, "error": outcome.error}
+    metrics = outcome.metrics
+    if metrics is None:
+        return {"status": "invalid", "error": outcome.error}
     summary = metrics.get(method)
     if summary is None:
         return {"status": "invalid", "error": f"metrics.json has no '{method}' summary (no ground truth?)"}
@@ -349,28 +351,3 @@ def extrapolate_time(run_time_s: float, stages: dict, steps: int, short_stages: 
                 per_step, fixed = slope, t - slope * n
         total += fixed + per_step * steps - t
     return total
-
-
-def write_csv(rows: Sequence[dict], path: Path) -> Path:
-    """``rows`` as CSV, columns in first-seen order."""
-    columns = list(dict.fromkeys(k for row in rows for k in row))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, columns)
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
-
-
-def fmt(value: object) -> str:
-    """A float to 3 significant digits (whole numbers from 1000), NaN as '–'; anything else as str."""
-    if isinstance(value, float):
-        return "–" if math.isnan(value) else f"{value:.0f}" if abs(value) >= 1000 else f"{value:.3g}"
-    return str(value)
-
-
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
-    """A GitHub markdown table of `fmt` cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]
-    return "\n".join(lines)

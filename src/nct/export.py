@@ -11,6 +11,9 @@ import imageio.v3 as iio  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import tifffile  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.image import AxesImage  # noqa: E402
+from matplotlib.text import Text  # noqa: E402
 
 from nct.metrics import FrameMetrics  # noqa: E402
 
@@ -54,23 +57,36 @@ def save_strip(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, n_c
     plt.close(fig)
 
 
-def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps: float) -> None:
-    """An animated GIF of the methods side by side (truth | FBP | NCT), labelled, looping."""
+def movie_figure(frames: dict[str, np.ndarray], times: np.ndarray) -> tuple[Figure, list[AxesImage], Text]:
+    """The movie's figure, laid out once: a panel per method (truth | FBP | NCT) labelled with its name,
+    and above them a time label sized for the longest time. Returns the figure, the panels' images
+    and the time label, for `save_movie` to update per frame."""
     vmax = _display_range(frames)
-    fig, axes = plt.subplots(1, len(frames), figsize=(2.4 * len(frames), 2.7), squeeze=False)
+    fig, axes = plt.subplots(1, len(frames), figsize=(2.4 * len(frames), 2.9), squeeze=False, layout="constrained")
     images = []
     for ax, (name, f) in zip(axes[0], frames.items()):
         images.append(ax.imshow(f[0], cmap="gray", vmin=0, vmax=vmax))
         ax.set_title(name, fontsize=10)
         ax.set_xticks([])
         ax.set_yticks([])
-    label = fig.suptitle("", fontsize=9)
-    fig.tight_layout()
+    label = fig.suptitle(_time_label(float(np.max(times))), fontsize=9)
+    fig.canvas.draw()  # constrained layout makes room for the label and the panel titles ...
+    fig.set_layout_engine("none")  # ... once: the panels stay put from frame to frame
+    return fig, images, label
+
+
+def _time_label(t: float) -> str:
+    return f"t = {t * 1e3:.0f} ms"
+
+
+def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps: float) -> None:
+    """An animated GIF of the methods side by side (truth | FBP | NCT), labelled, looping."""
+    fig, images, label = movie_figure(frames, times)
     pictures = []
     for i, t in enumerate(times):
         for im, f in zip(images, frames.values()):
             im.set_data(f[i])
-        label.set_text(f"t = {t * 1e3:.0f} ms")
+        label.set_text(_time_label(t))
         fig.canvas.draw()
         pictures.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
     plt.close(fig)

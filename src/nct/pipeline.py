@@ -27,7 +27,7 @@ from nct.projector import fbp_frames
 from nct.scanner import ImageGrid
 from nct.simulate import simulate
 from nct.sinogram import Sinogram
-from nct.tracking import flat_hparams, write_capacity, write_run_summary
+from nct.tracking import run_hparams, write_capacity, write_frames, write_hparams
 
 log = logging.getLogger(__name__)
 
@@ -128,7 +128,9 @@ def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict
         if capacity:
             final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
             write_capacity(out_dir / "tb", capacity)
-        write_run_summary(out_dir / "tb", flat_hparams(cfg), final, shown)
+        overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
+        write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
+        write_frames(out_dir / "tb", shown)
 
 
 def _write_json(path: Path, payload: dict) -> None:

@@ -8,8 +8,6 @@ A failed, diverged, unfinished or missing job is a row like any other, with its 
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
 import shlex
 import sys
@@ -21,12 +19,14 @@ import numpy as np
 from matplotlib.figure import Figure
 from omegaconf import DictConfig, OmegaConf
 
+from nct.outcome import FINISHED, read_outcome
+from nct.tables import fmt, markdown_table, write_csv
+
 #: Config keys the plots know.
 DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX = "phantom.displacement_deg", "loss.tv_space", "loss.tv_time", "model.f_max"
 PLOTTED_KEYS = (DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX)
 METHODS = ("fbp", "nct")
 SUMMARY_STATS = (("median_dice", "Dice"), ("median_mse", "MSE"))  # per-job summaries the plots show
-FINISHED = "ok"
 
 
 class ReportError(ValueError):
@@ -101,31 +101,17 @@ def collect_jobs(sweep_dir: Path) -> list[Job]:
 
 
 def read_job(job_dir: Path) -> Job:
-    """One job folder: overrides, status (``unfinished`` without status.json), error, metrics."""
+    """One job folder: overrides, its `read_outcome` (status, error, wall time) and flattened metrics."""
     hydra_dir = job_dir / ".hydra"
     overrides = _parse_overrides(_load_yaml_list(hydra_dir / "overrides.yaml"))
     num = _job_num(hydra_dir / "hydra.yaml")
-    status = _load_json(job_dir / "status.json")
-    if status is None:
-        state, error, wall = "unfinished", "no status.json: never started, or killed before it began", None
-    elif isinstance(status, str):
-        state, error, wall = "unfinished", status, None
-    else:
-        state = str(status.get("status", "unfinished"))
-        error = status.get("error")
-        wall = _number(status.get("wall_time_s"))
-        if state == "running":
-            error = error or "status running: still running, or interrupted"
-    metrics: dict[str, float | str] = {}
-    if state == FINISHED:
-        loaded = _load_json(job_dir / "metrics.json")
-        if isinstance(loaded, dict):
-            metrics = flatten_metrics(loaded)
-            wall = wall if wall is not None else _number(loaded.get("wall_time_s"))
-        else:
-            error = "metrics.json missing or unreadable" + (f": {loaded}" if loaded else "")
+    outcome = read_outcome(job_dir)
+    metrics = flatten_metrics(outcome.metrics) if outcome.metrics is not None else {}
+    wall = outcome.wall_time_s
+    if wall is None and outcome.metrics is not None:
+        wall = _number(outcome.metrics.get("wall_time_s"))
     settings = _settings(_load_yaml(hydra_dir / "config.yaml"), overrides)
-    return Job(num, overrides, state, error, wall, metrics, settings, job_dir)
+    return Job(num, overrides, outcome.status, outcome.error, wall, metrics, settings, job_dir)
 
 
 def missing_jobs(plan: DictConfig, found: set[int | None]) -> list[Job]:
@@ -236,17 +222,6 @@ def _load_yaml_list(path: Path) -> list[str]:
     return [str(x) for x in loaded] if not isinstance(loaded, DictConfig) else []
 
 
-def _load_json(path: Path) -> dict | str | None:
-    """The parsed file; None when absent; the error as a string when unreadable."""
-    if not path.is_file():
-        return None
-    try:
-        loaded = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        return f"unreadable {path.name}: {err}"
-    return loaded if isinstance(loaded, dict) else f"unreadable {path.name}: not a JSON object"
-
-
 def _number(value: object) -> float | None:
     if isinstance(value, bool) or value is None:
         return None
@@ -270,17 +245,11 @@ def _union(dicts: Iterable[dict]) -> list[str]:
     return list(dict.fromkeys(k for d in dicts for k in d))
 
 
-def write_csv(jobs: Sequence[Job], path: Path) -> Path:
-    """One row per job; cells a job lacks are empty."""
-    columns = table_columns(jobs)
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, columns, restval="")
-        writer.writeheader()
-        for job in jobs:
-            row = {"job": "" if job.num is None else job.num, "status": job.status,
-                   "error": job.error or "", "wall_time_s": "" if job.wall_time_s is None else job.wall_time_s}
-            writer.writerow({**job.overrides, **job.metrics, **row})
-    return path
+def write_table(jobs: Sequence[Job], path: Path) -> Path:
+    """``report.csv``: one row per job (`table_columns`); cells a job lacks are empty."""
+    rows = [{**job.overrides, **job.metrics, "job": job.num, "status": job.status, "error": job.error,
+             "wall_time_s": job.wall_time_s} for job in jobs]
+    return write_csv(rows, path, table_columns(jobs))
 
 
 # ---------------------------------------------------------------- aggregates and plots
@@ -288,7 +257,8 @@ def write_csv(jobs: Sequence[Job], path: Path) -> Path:
 
 @dataclass(frozen=True)
 class Aggregate:
-    """Mean and sample sd (over the finished jobs at each x, e.g. seeds) of one metric: arrays [X]."""
+    """Mean and sample sd (over the finished jobs at each x, e.g. seeds) of one metric: arrays [X];
+    sd is NaN where fewer than two jobs finished (one job has no spread)."""
 
     x: np.ndarray
     n: np.ndarray
@@ -312,46 +282,69 @@ def aggregate(jobs: Sequence[Job], key: str, metric: str) -> Aggregate:
     groups = [np.array([j.metric(metric) for j in finished(jobs) if j.settings.get(key) == x]) for x in xs]
     groups = [g[np.isfinite(g)] for g in groups]
     mean = np.array([g.mean() if g.size else np.nan for g in groups])
-    sd = np.array([g.std(ddof=1) if g.size > 1 else 0.0 for g in groups])
+    sd = np.array([g.std(ddof=1) if g.size > 1 else np.nan for g in groups])
     return Aggregate(np.array(xs), np.array([g.size for g in groups]), mean, sd)
 
 
-def plot_metrics_vs(jobs: Sequence[Job], key: str, label: str, path: Path) -> Path:
-    """Median Dice and median MSE per job against ``key``, FBP and NCT, mean +- sd over jobs (seeds)."""
+def spread(n: np.ndarray, stat: str = "mean ± sd") -> str:
+    """What a value shown per setting is, given the number of jobs ``n`` behind each: one job's value,
+    or ``stat`` over several (settings with no job left out)."""
+    n = n[n > 0]
+    if n.size == 0 or n.max() == 1:
+        return "one job per setting"
+    jobs = f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
+    return f"{stat} over {jobs} jobs per setting"
+
+
+def log_scale_fits(values: Sequence[float]) -> bool:
+    """A log axis suits ``values`` when they are positive and span two decades or more: it then labels
+    only whole decades. Over a narrower range it labels values between decades (3×10⁻³, 4×10⁻³...), long
+    labels that overlap; a linear axis with one shared exponent reads better there."""
+    finite = np.asarray([v for v in values if math.isfinite(v)])
+    return finite.size > 1 and finite.min() > 0 and finite.max() / finite.min() >= 100
+
+
+def metrics_vs_figure(jobs: Sequence[Job], key: str, label: str) -> Figure:
+    """Median Dice and median MSE per job against ``key``, FBP and NCT; several jobs at one setting
+    (e.g. seeds): their mean ± sd, as the legend says."""
     fig = Figure(figsize=(10, 4), layout="constrained")
     for ax, (stat, name) in zip(fig.subplots(1, 2), SUMMARY_STATS):
-        for method in METHODS:
-            agg = aggregate(jobs, key, f"{method}.{stat}")
-            if np.isfinite(agg.mean).any():
-                ax.errorbar(agg.x, agg.mean, yerr=agg.sd, marker="o", capsize=3, label=method.upper())
-        if stat == "median_mse" and ax.has_data():
+        aggs = {method: aggregate(jobs, key, f"{method}.{stat}") for method in METHODS}
+        aggs = {method: agg for method, agg in aggs.items() if np.isfinite(agg.mean).any()}
+        for method, agg in aggs.items():
+            yerr = agg.sd if np.isfinite(agg.sd).any() else None
+            ax.errorbar(agg.x, agg.mean, yerr=yerr, marker="o", capsize=3, label=method.upper())
+        if stat == "median_mse" and log_scale_fits([v for agg in aggs.values() for v in agg.mean]):
             ax.set_yscale("log")
         ax.set_xlabel(label)
-        ax.set_ylabel(f"median {name} per job (mean ± sd over seeds)")
+        ax.set_ylabel(f"median {name} of a job")
         ax.grid(alpha=0.3)
-        ax.legend()
+        if aggs:
+            ax.legend(title=spread(np.concatenate([agg.n for agg in aggs.values()])), fontsize=9, title_fontsize=9)
     fig.suptitle(f"Dice and MSE against {label}")
-    fig.savefig(path, dpi=120)
-    return path
+    return fig
 
 
-def tv_grid(jobs: Sequence[Job], metric: str = "nct.median_dice") -> tuple[list[float], list[float], np.ndarray]:
-    """Mean ``metric`` on the TV-space x TV-time grid: (space values, time values, [S,T], NaN: no job)."""
+def tv_grid(jobs: Sequence[Job], metric: str = "nct.median_dice"
+            ) -> tuple[list[float], list[float], np.ndarray, np.ndarray]:
+    """Mean ``metric`` on the TV-space x TV-time grid: (space values, time values, mean [S,T] (NaN: no
+    job), number of jobs averaged [S,T])."""
     spaces, times = distinct(jobs, TV_SPACE), distinct(jobs, TV_TIME)
     grid = np.full((len(spaces), len(times)), np.nan)
+    counts = np.zeros((len(spaces), len(times)), dtype=int)
     for i, s in enumerate(spaces):
         for k, t in enumerate(times):
             values = [j.metric(metric) for j in finished(jobs)
                       if j.settings.get(TV_SPACE) == s and j.settings.get(TV_TIME) == t]
             values = [v for v in values if math.isfinite(v)]
             if values:
-                grid[i, k] = float(np.mean(values))
-    return spaces, times, grid
+                grid[i, k], counts[i, k] = float(np.mean(values)), len(values)
+    return spaces, times, grid, counts
 
 
-def plot_tv_grid(jobs: Sequence[Job], path: Path) -> Path:
+def tv_grid_figure(jobs: Sequence[Job]) -> Figure:
     """Heat map of NCT median Dice over TV-space (rows) x TV-time (columns) weights (paper Fig. 3 top)."""
-    spaces, times, grid = tv_grid(jobs)
+    spaces, times, grid, counts = tv_grid(jobs)
     fig = Figure(figsize=(max(4.5, 2.0 + 0.6 * len(times)), max(3.5, 1.5 + 0.45 * len(spaces))),
                  layout="constrained")
     ax = fig.subplots()
@@ -365,18 +358,20 @@ def plot_tv_grid(jobs: Sequence[Job], path: Path) -> Path:
             ax.text(k, i, f"{value:.2f}", ha="center", va="center", fontsize=7,
                     color="black" if value > 0.6 else "white")
     fig.colorbar(image, ax=ax, label="NCT median Dice")
-    fig.savefig(path, dpi=120)
-    return path
+    ax.set_title(f"NCT median Dice: {spread(counts.ravel(), 'mean')}", fontsize=9)
+    return fig
 
 
-def plot_accuracy_vs_time(jobs: Sequence[Job], path: Path) -> Path:
+def accuracy_vs_time_figure(jobs: Sequence[Job]) -> Figure:
     """NCT median Dice against the job's wall time, labelled by job number; failed ones as crosses at 0."""
     fig = Figure(figsize=(6, 4), layout="constrained")
     ax = fig.subplots()
     done = finished(jobs)
-    ax.scatter([j.wall_time_s for j in done], [j.metric("nct.median_dice") for j in done], label="NCT")
+    ax.scatter([j.wall_time_s for j in done], [j.metric("nct.median_dice") for j in done],
+               label="NCT, labelled by job number")
     for job in done:
-        ax.annotate(str(job.num), (job.wall_time_s, job.metric("nct.median_dice")), fontsize=6)
+        ax.annotate(str(job.num), (job.wall_time_s, job.metric("nct.median_dice")), xytext=(3, 3),
+                    textcoords="offset points", fontsize=7)
     broken = [j for j in jobs if j.status != FINISHED and j.wall_time_s is not None]
     if broken:
         ax.scatter([j.wall_time_s for j in broken], [0.0] * len(broken), marker="x", color="red",
@@ -385,69 +380,70 @@ def plot_accuracy_vs_time(jobs: Sequence[Job], path: Path) -> Path:
     ax.set_ylabel("NCT median Dice")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.savefig(path, dpi=120)
-    return path
+    return fig
 
 
-def plot_heldout_vs_dice(jobs: Sequence[Job], path: Path) -> Path:
+def heldout_vs_dice_figure(jobs: Sequence[Job]) -> Figure:
     """NCT median Dice against the truth-free held-out sinogram loss: is the search score a fair proxy?"""
     fig = Figure(figsize=(6, 4), layout="constrained")
     ax = fig.subplots()
     done = finished(jobs)
-    ax.scatter([j.metric("heldout_loss") for j in done], [j.metric("nct.median_dice") for j in done])
-    ax.set_xscale("log")
+    losses = [j.metric("heldout_loss") for j in done]
+    ax.scatter(losses, [j.metric("nct.median_dice") for j in done])
+    if log_scale_fits(losses):
+        ax.set_xscale("log")
     ax.set_xlabel("held-out sinogram loss (truth-free; lower is better)")
     ax.set_ylabel("NCT median Dice")
     ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=120)
-    return path
+    return fig
+
+
+def figures(jobs: Sequence[Job]) -> dict[str, Figure]:
+    """Every plot whose setting varies over the finished jobs (accuracy vs wall time always), by name."""
+    plots: dict[str, Figure] = {}
+    if len(distinct(jobs, DISPLACEMENT)) > 1:
+        plots["displacement"] = metrics_vs_figure(jobs, DISPLACEMENT, "displacement per rotation (deg)")
+    if len(distinct(jobs, TV_SPACE)) > 1 and len(distinct(jobs, TV_TIME)) > 1:
+        plots["tv_grid"] = tv_grid_figure(jobs)
+    if len(distinct(jobs, F_MAX)) > 1:
+        plots["f_max"] = metrics_vs_figure(jobs, F_MAX, "model.f_max (F_max)")
+    plots["accuracy_vs_time"] = accuracy_vs_time_figure(jobs)
+    if sum(math.isfinite(j.metric("heldout_loss")) and j.metric("heldout_loss") > 0 for j in finished(jobs)) > 1:
+        plots["heldout_vs_dice"] = heldout_vs_dice_figure(jobs)
+    return plots
 
 
 def write_plots(jobs: Sequence[Job], out_dir: Path) -> dict[str, Path]:
-    """Every plot whose setting varies over the finished jobs (accuracy vs wall time always)."""
-    plots: dict[str, Path] = {}
-    if len(distinct(jobs, DISPLACEMENT)) > 1:
-        plots["displacement"] = plot_metrics_vs(jobs, DISPLACEMENT, "displacement per rotation (deg)",
-                                                out_dir / "displacement.png")
-    if len(distinct(jobs, TV_SPACE)) > 1 and len(distinct(jobs, TV_TIME)) > 1:
-        plots["tv_grid"] = plot_tv_grid(jobs, out_dir / "tv_grid.png")
-    if len(distinct(jobs, F_MAX)) > 1:
-        plots["f_max"] = plot_metrics_vs(jobs, F_MAX, "model.f_max (F_max)", out_dir / "f_max.png")
-    plots["accuracy_vs_time"] = plot_accuracy_vs_time(jobs, out_dir / "accuracy_vs_time.png")
-    if sum(math.isfinite(j.metric("heldout_loss")) and j.metric("heldout_loss") > 0 for j in finished(jobs)) > 1:
-        plots["heldout_vs_dice"] = plot_heldout_vs_dice(jobs, out_dir / "heldout_vs_dice.png")
-    return plots
+    """`figures` as ``out_dir/<name>.png``."""
+    paths: dict[str, Path] = {}
+    for name, fig in figures(jobs).items():
+        paths[name] = out_dir / f"{name}.png"
+        fig.savefig(paths[name], dpi=120)
+    return paths
 
 
 # ---------------------------------------------------------------- summary
 
 
-def _fmt(value: float | None, digits: int = 3) -> str:
-    return "" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
-
-
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return lines + ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
-
-
-def _by_setting_table(jobs: Sequence[Job], key: str) -> list[str]:
+def _by_setting_section(jobs: Sequence[Job], key: str, title: str) -> list[str]:
     stats = [(m, s, f"{m.upper()} {name}") for s, name in SUMMARY_STATS for m in METHODS]
     aggs = [aggregate(jobs, key, f"{m}.{s}") for m, s, _ in stats]
     header = [key, "jobs ok", *(title for _, _, title in stats)]
     rows = [[f"{x:g}", str(aggs[0].n[i]),
              *(_mean_sd(a, i) for a in aggs)] for i, x in enumerate(aggs[0].x)]
-    return _md_table(header, rows)
+    return [f"## {title} (each job's median; {spread(aggs[0].n)})", "", markdown_table(header, rows), ""]
 
 
 def _mean_sd(agg: Aggregate, i: int) -> str:
-    return f"{_fmt(agg.mean[i])} ± {_fmt(agg.sd[i], 2)}" if np.isfinite(agg.mean[i]) else ""
+    """The mean, with ``± sd`` where there is a spread (two jobs or more)."""
+    spread_known = np.isfinite(agg.mean[i]) and np.isfinite(agg.sd[i])
+    return fmt(agg.mean[i]) + (f" ± {fmt(agg.sd[i], 2)}" if spread_known else "")
 
 
-def _tv_table(jobs: Sequence[Job]) -> list[str]:
-    spaces, times, grid = tv_grid(jobs)
-    rows = [[f"{s:g}", *(_fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
-    return _md_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
+def _tv_table(jobs: Sequence[Job]) -> str:
+    spaces, times, grid, _ = tv_grid(jobs)
+    rows = [[f"{s:g}", *(fmt(v, 2) for v in grid[i])] for i, s in enumerate(spaces)]
+    return markdown_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
 
 
 def _first_line(error: str | None) -> str:
@@ -483,19 +479,20 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         pick = min(best, key=lambda j: j.metric("heldout_loss"))
         lines += [f"Lowest held-out sinogram loss (truth-free choice): job {pick.num} "
                   f"({_label(pick, varying) or 'no varying override'}), held-out loss "
-                  f"{_fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {_fmt(pick.metric('nct.median_dice'))}.", ""]
+                  f"{fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {fmt(pick.metric('nct.median_dice'))}.", ""]
     for key, title in ((DISPLACEMENT, "By displacement"), (F_MAX, "By F_max")):
         if len(distinct(jobs, key)) > 1:
-            lines += [f"## {title} (mean ± sd over jobs, e.g. seeds, of each job's median)", "",
-                      *_by_setting_table(jobs, key), ""]
+            lines += _by_setting_section(jobs, key, title)
     if "tv_grid" in plots:
-        lines += ["## NCT median Dice on the TV grid (rows: TV space, columns: TV time)", "", *_tv_table(jobs), ""]
+        counts = tv_grid(jobs)[3]
+        lines += [f"## NCT median Dice on the TV grid ({spread(counts.ravel(), 'mean')}; rows: TV space, "
+                  "columns: TV time)", "", _tv_table(jobs), ""]
     header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in SUMMARY_STATS for m in METHODS),
               "held-out loss", "wall s"]
     rows = [[str(j.num), *(_short(j.overrides.get(k, "")) for k in varying), j.status,
-             *(_fmt(j.metric(f"{m}.{s}")) for s, _ in SUMMARY_STATS for m in METHODS),
-             _fmt(j.metric("heldout_loss"), 4), _fmt(j.wall_time_s, 3)] for j in jobs]
-    lines += ["## Jobs", "", *_md_table(header, rows), ""]
+             *(j.metric(f"{m}.{s}") for s, _ in SUMMARY_STATS for m in METHODS),
+             fmt(j.metric("heldout_loss"), 4), j.wall_time_s] for j in jobs]
+    lines += ["## Jobs", "", markdown_table(header, rows), ""]
     broken = [j for j in jobs if j.status != FINISHED or j.error]
     lines += ["## Failed, diverged, unfinished or missing", ""]
     lines += [f"- job {j.num} ({_label(j, varying) or 'no varying override'}): **{j.status}**: "
@@ -521,16 +518,27 @@ def write_report(sweep_dir: Path, out_dir: Path | None = None) -> Report:
     jobs = collect_jobs(sweep_dir)
     out_dir = Path(out_dir) if out_dir is not None else sweep_dir / "report"
     out_dir.mkdir(parents=True, exist_ok=True)
-    table = write_csv(jobs, out_dir / "report.csv")
+    table = write_table(jobs, out_dir / "report.csv")
     plots = write_plots(jobs, out_dir)
     summary = out_dir / "summary.md"
     summary.write_text("\n".join(summary_lines(sweep_dir, jobs, plots)))
     return Report(jobs, table, summary, plots)
 
 
+HELP = """\
+Summarise a Hydra multirun folder (a sweep, finished or interrupted) in DIR/report (or --out):
+  report.csv   one row per job: overrides, status, error, wall time, metrics
+  summary.md   counts, tables by swept setting, every job, what did not finish and
+               the command that runs it again
+  *.png        Dice and MSE against the swept setting, the TV-weight grid, accuracy
+               against wall time, held-out loss against Dice (those that apply)
+Failed, diverged, unfinished and never-started jobs are rows like the others."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point (``nct-report DIR [--out OUT]``); exit 2 on a bad DIR."""
-    parser = argparse.ArgumentParser(prog="nct-report", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="nct-report", description=HELP,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("dir", type=Path, help="a multirun folder (hydra.sweep.dir), e.g. outputs/multirun/...")
     parser.add_argument("--out", type=Path, default=None, help="where to write (default: DIR/report)")
     args = parser.parse_args(argv)

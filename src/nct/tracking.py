@@ -1,47 +1,74 @@
-"""TensorBoard records of a finished run: image grids of the frames and the HParams session."""
+"""TensorBoard records of a finished run: image grids of the frames and the HParams session.
+
+The HParams session lives in its own folder, ``tb/hparams``, holding nothing but the ``hp/*``
+scalars: TensorBoard lists as metrics every scalar of a session's folder and its subfolders, so a
+session in ``tb/`` would also list what Lightning logs per stage in ``tb/<stage>`` (``epoch``,
+losses, learning rates). No experiment summary is written: TensorBoard then builds the table's
+columns from all sessions it sees, the keys that differ between runs first.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, OmegaConf
+from tensorboard.plugins.hparams.summary_v2 import hparams_pb
 from torch.utils.tensorboard import SummaryWriter
-from torch.utils.tensorboard.summary import hparams
+
+from nct.tables import fmt, markdown_table
+
+#: Config keys that name a run in the HParams tab whatever its overrides: what was reconstructed, how.
+IDENTITY_KEYS = ("method", "data.name", "data.path", "phantom.name", "model.name", "seed")
+#: Where `write_hparams` puts the session, below the run's ``tb/``.
+HPARAMS_DIR = "hparams"
+
+HParam = bool | int | float | str
 
 
-def flat_hparams(cfg: DictConfig) -> dict[str, float | int | str | bool]:
-    """The config as flat ``a.b.c`` scalars (lists and nulls as strings), for the HParams tab."""
-    flat: dict[str, float | int | str | bool] = {}
+def run_hparams(cfg: DictConfig, overrides: Sequence[str]) -> dict[str, HParam]:
+    """What the HParams tab shows of a run: `IDENTITY_KEYS` from ``cfg``, then every command-line override.
 
-    def walk(node, prefix: str) -> None:
-        if isinstance(node, dict):
-            for k, v in node.items():
-                walk(v, f"{prefix}{k}.")
-        elif isinstance(node, (bool, int, float, str)):
-            flat[prefix[:-1]] = node
-        else:
-            flat[prefix[:-1]] = str(node)
+    Override values keep their type (``trainer.refine=true`` a bool, ``seed=1`` a number); a group
+    choice (``model=grid``) is its option's name; lists and nulls are their text. Hydra's own
+    overrides (``hydra.*``, ``hydra/launcher=...``) and deletions (``~key``) are left out.
+    """
+    values: dict[str, HParam] = {}
+    for key in IDENTITY_KEYS:
+        value = OmegaConf.select(cfg, key, default=None)
+        if value is not None:
+            values[key] = _scalar(value)
+    for override in OverridesParser.create().parse_overrides(list(overrides)):
+        key = override.get_key_element().lstrip("+")
+        if not key.startswith("hydra") and not override.is_delete():
+            values[key] = _scalar(override.value())
+    return values
 
-    walk(OmegaConf.to_container(cfg, resolve=True), "")
-    return flat
+
+def _scalar(value: object) -> HParam:
+    return value if isinstance(value, (bool, int, float, str)) else "null" if value is None else str(value)
 
 
-def write_run_summary(tb_dir: Path, hparam_values: dict, final: dict[str, float],
-                      frames: dict[str, np.ndarray], n_images: int = 6) -> None:
-    """Write the HParams session (swept values + final metrics) and a truth|FBP|NCT image per frame.
+def write_hparams(tb_dir: Path, hparam_values: dict[str, HParam], final: dict[str, float | None]) -> Path:
+    """The run's HParams session in ``tb_dir/hparams``: ``hparam_values`` and the ``hp/*`` metrics in
+    ``final`` (None or non-finite: NaN); returns the session's folder."""
+    folder = tb_dir / HPARAMS_DIR
+    with SummaryWriter(log_dir=str(folder)) as w:
+        w.file_writer.add_summary(hparams_pb(hparam_values))
+        for k, v in final.items():
+            w.add_scalar(k, v if v is not None and math.isfinite(v) else float("nan"))
+    return folder
+
+
+def write_frames(tb_dir: Path, frames: dict[str, np.ndarray], n_images: int = 6) -> None:
+    """A truth|FBP|NCT image per shown frame, ``n_images`` frames spread over time.
 
     frames: name -> [F,H,W]; images are scaled to [0, 1] by the truth's (or first method's) range.
     """
-    tb_dir.mkdir(parents=True, exist_ok=True)
-    metrics = {k: (v if v is not None and math.isfinite(v) else float("nan")) for k, v in final.items()}
     with SummaryWriter(log_dir=str(tb_dir)) as w:
-        exp, ssi, sei = hparams(hparam_values, metrics)
-        for summary in (exp, ssi, sei):
-            w.file_writer.add_summary(summary)
-        for k, v in metrics.items():
-            w.add_scalar(k, v)
         ref = frames.get("truth", next(iter(frames.values())))
         vmax = float(max(ref.max(), 1e-6))
         n = next(iter(frames.values())).shape[0]
@@ -58,9 +85,9 @@ def write_capacity(tb_dir: Path, capacity: dict) -> None:
     choice = capacity.get("choice")
     with SummaryWriter(log_dir=str(tb_dir)) as w:
         if choice:
-            lines.append(f"chosen automatically: {choice['reason']}")
-            lines += ["", "| terms | held-out loss | parameters |", "|---|---|---|"]
+            rows = [[r["n_terms"], fmt(r["heldout_loss"], 5), r["n_params"]] for r in choice["ladder"]]
+            lines += [f"chosen automatically: {choice['reason']}", "",
+                      markdown_table(["terms", "held-out loss", "parameters"], rows)]
             for rung in choice["ladder"]:
-                lines.append(f"| {rung['n_terms']} | {rung['heldout_loss']:.5g} | {rung['n_params']} |")
                 w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
         w.add_text("capacity", "\n".join(lines))
