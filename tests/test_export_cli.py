@@ -18,9 +18,9 @@ from nct.pipeline import run_job
 from nct.reload import load_run
 
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
-VARIANTS = {
-    "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3"],
-    "auto": ["capacity=auto", "capacity.ladder=[0,4]"],
+VARIANTS = {  # each in units of its own (normalise.py): the export maps back like the run
+    "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", "image.extent=1.5"],
+    "auto": ["capacity=auto", "capacity.ladder=[0,4]", "phantom.intensity=3.0"],
 }
 
 
@@ -62,6 +62,8 @@ def refused(capsys, *argv) -> str:
 
 
 def test_own_times_and_grid_give_the_runs_frames(run, tmp_path):
+    units = json.loads((run / "metrics.json").read_text())["init"]
+    assert units["length_unit"] == 1.5 or units["intensity_unit"] > 2  # not the method's own units
     rec = np.load(run / "reconstruction.npz")
     size = rec["nct"].shape[-1]
     out = export(run, "--times", *rec["times"], "--size", size, "--out", tmp_path / "own.npz")
