@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,8 @@ from nct.reload import load_run
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
 VARIANTS = {  # each in units of its own (normalise.py): the export maps back like the run
     "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", "image.extent=1.5"],
-    "auto": ["capacity=auto", "capacity.ladder=[0,4]", "phantom.intensity=3.0"],
+    # the static rung is chosen (4 terms would have to lower the held-out loss by 99 %), not the last fitted
+    "auto": ["capacity=auto", "capacity.ladder=[0,4]", "capacity.tolerance=0.99", "phantom.intensity=3.0"],
 }
 
 
@@ -121,7 +123,10 @@ def test_rebuilt_field_is_the_checkpoints(run):
     conf = ModelConf(**{**OmegaConf.to_container(cfg.model), "n_terms": fitted.field.n_terms})
     drawn = build_field(conf, 1, torch.Generator().manual_seed(int(cfg.seed)))
     torch.testing.assert_close(drawn.omega, fitted.field.omega, rtol=0, atol=0)
-    assert fitted.checkpoint.parent.name.startswith("refine_fit" if cfg.optim.refine else f"m{fitted.field.n_terms}_")
+    if cfg.capacity.auto:
+        assert fitted.checkpoint.parent.name == "m0_fit" and (run / "checkpoints" / "m4_fit").is_dir()
+    else:
+        assert fitted.checkpoint.parent.name == "refine_fit"
 
 
 def test_fbp_only_run_is_refused(fbp_run, capsys):
@@ -137,6 +142,11 @@ def test_fbp_only_run_is_refused(fbp_run, capsys):
 ])
 def test_bad_arguments_are_refused(run, capsys, argv, says):
     assert says in refused(capsys, run, *argv)
+
+
+def test_run_without_checkpoints_is_refused(run, tmp_path, capsys):
+    copy = shutil.copytree(run, tmp_path / "run", ignore=shutil.ignore_patterns("checkpoints"))
+    assert "no checkpoint" in refused(capsys, copy, "--frames", 4)
 
 
 def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):
