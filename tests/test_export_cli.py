@@ -155,3 +155,14 @@ def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):
     (tmp_path / ".hydra" / "config.yaml").write_text((run / ".hydra" / "config.yaml").read_text())
     (tmp_path / "status.json").write_text(json.dumps({"status": "running"}))
     assert "did not finish (status.json: running)" in refused(capsys, tmp_path, "--frames", 4)
+
+
+def test_a_run_without_a_logger_keeps_its_checkpoints(tmp_path):
+    """logger=none turns off TensorBoard, not the checkpoints nct-export and resume read."""
+    from conftest import TINY, compose_config
+
+    from nct.pipeline import run_job
+
+    run_job(compose_config(TINY + ["logger=none"]), tmp_path / "run")
+    assert sorted(p.parent.name for p in (tmp_path / "run" / "checkpoints").glob("*/last.ckpt")) == ["fit", "init"]
+    assert not (tmp_path / "run" / "tb").exists()

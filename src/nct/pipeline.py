@@ -73,7 +73,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
 
         result = reconstruct(
             acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
-            log_dir=None if conf.logger.name == "none" else out_dir, logger=conf.logger.name,
+            log_dir=out_dir, logger=conf.logger.name,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
             capacity=conf.capacity, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
         )

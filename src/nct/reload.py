@@ -81,8 +81,7 @@ def _checkpoint(run_dir: Path, stages: list[str], n_terms: int, auto: bool) -> P
     saved = [run_dir / "checkpoints" / s / "last.ckpt" for s in ours]
     saved = [p for p in saved if p.is_file()]
     if not saved:
-        raise InputError(f"{run_dir} holds no checkpoint of its fitted field (checkpoints/<stage>/last.ckpt); "
-                         "runs with logger=none save none")
+        raise InputError(f"{run_dir} holds no checkpoint of its fitted field (checkpoints/<stage>/last.ckpt)")
     return saved[-1]
 
 
