@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from nct.benchmarking import QUIET, Job, Record, benchmark_parser, group, run_jobs, seed_stats
-from nct.tables import fmt, markdown_table, write_csv
+from nct.tables import markdown_table, write_csv
 
 SCENES: dict[str, tuple[str, ...]] = {
     "circle_100": ("experiment=circle", "phantom.displacement_deg=100"),
