@@ -158,6 +158,16 @@ class Scene:
                 "speed": "fast" if self.max_deg_per_rotation >= 150 else "slow" if self.moving else "none",
                 "units": self.units}
 
+    def own_levels(self) -> dict[int, float]:
+        """Issue 9 item 5's threshold for each nested object: its containers' intensities plus half
+        its own (it adds to them), by object index; empty when nothing is nested."""
+
+        def below(i: int) -> float:
+            parent = self.objects[i].parent
+            return 0.0 if parent is None else self.objects[parent].intensity + below(parent)
+
+        return {i: below(i) + 0.5 * o.intensity for i, o in enumerate(self.objects) if o.parent is not None}
+
     def parameters(self) -> dict:
         """Every drawn parameter as a flat row (radii as % of the FOV's side)."""
         acq = self.acquisition

@@ -125,3 +125,15 @@ def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
     assert [line.split(":")[1].split(",")[0].strip() for line in checks.lines()] == ["FAIL", "FAIL", "FAIL"]
     rows = {(r["category"], r["value"]): r for r in G.category_rows([ok, trailing, crashed])}
     assert rows["all", "all"]["nct_dice"] == pytest.approx(0.885) and rows["all", "all"]["nct_failed"] == 1
+
+
+def test_own_level_of_a_nested_object_adds_its_containers():
+    """Issue 9 item 5's threshold: a vessel (1.0) in a body (0.5) in a shell (0.2) is scored at 0.2 + 0.5 + 0.5."""
+    scene = next(s for s in S.draw_scenes(0, 60) if s.layout == "nested")
+    body = S.Ellipse((0.0, 0.0), 0.3, 0.3, 0.0, 0.2)
+    nested = (body, S.Ellipse((0.0, 0.0), 0.2, 0.2, 0.0, 0.5, parent=0), S.Ellipse((0.0, 0.0), 0.05, 0.05, 0.0, 1.0,
+                                                                                   parent=1))
+    levels = S.Scene(scene.index, scene.units, scene.extent, nested, "nested", scene.acquisition, None).own_levels()
+    assert levels == pytest.approx({1: 0.2 + 0.25, 2: 0.2 + 0.5 + 0.5})
+    single = S.Scene(scene.index, scene.units, scene.extent, (body,), "single", scene.acquisition, None)
+    assert single.own_levels() == {}
