@@ -88,3 +88,20 @@ def test_heavy_noise_still_gets_an_initialisation(noise_i0):
         seg = segment(frames / np.percentile(frames, 99.9), 1, np.random.default_rng(seed))
         assert seg.intensities[0] > 0
         assert np.median(dice(seg.masks[:, 0], sino.truth.frames >= sino.truth.level)) > 0.5
+
+
+def test_an_object_inside_a_dimmer_one_adds_to_it():
+    """A vessel (level 1.5) inside a body (0.5): the body's mask is filled through the vessel and the
+    vessel's intensity is what it adds (1.0); two objects apart keep their own levels and masks."""
+    x, y = ImageGrid(48).xy()
+    body, vessel = x**2 + y**2 < 0.35**2, (x - 0.1) ** 2 + y**2 < 0.08**2
+    frames = np.stack([0.5 * body + 1.0 * vessel] * 4).astype(np.float32)
+    seg = segment(frames, 2, np.random.default_rng(0), route="otsu")
+    k_body = int(np.argmax(seg.masks.sum(axis=(0, 2, 3))))
+    k_vessel = 1 - k_body
+    assert dice(seg.masks[:, k_body], np.stack([body] * 4)).min() > 0.97  # no hole where the vessel is
+    assert dice(seg.masks[:, k_vessel], np.stack([vessel] * 4)).min() > 0.95
+    np.testing.assert_allclose(seg.intensities[[k_body, k_vessel]], [0.5, 1.0], atol=0.05)
+    apart = np.stack([0.5 * (x**2 + y**2 < 0.15**2) + 1.5 * ((x - 0.3) ** 2 + y**2 < 0.08**2)] * 4).astype(np.float32)
+    np.testing.assert_allclose(np.sort(segment(apart, 2, np.random.default_rng(0), route="otsu").intensities),
+                               [0.5, 1.5], atol=0.05)

@@ -19,6 +19,7 @@ nothing stands out of the background at any scale does segmentation fail, with `
 
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
+An object inside a dimmer one adds to it (`nest`): the container's mask is filled through it.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter
+from scipy.ndimage import binary_fill_holes, gaussian_filter
 from skimage.filters import threshold_multiotsu
 from sklearn.mixture import GaussianMixture
 
@@ -41,7 +42,8 @@ SMOOTHING_PX = (0.0, 1.0, 2.0, 4.0)  # scales (Gaussian sigma, pixels) at which 
 
 @dataclass(frozen=True)
 class Segmentation:
-    """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level;
+    """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level
+    (minus its container's, for an object nested in a dimmer one: see `nest`);
     route: "gmm" (Algorithm 1) or "otsu" (the fallback); background: the background level;
     smoothing_px: the Gaussian scale at which the fallback found the objects (0: none)."""
 
@@ -85,8 +87,28 @@ def segment(
         levels = otsu_levels(frames, n_objects, noise)
     nearest = np.argmin(np.abs(frames[..., None] - levels.astype(np.float32)), axis=-1)
     masks = np.stack([nearest == k + 1 for k in range(n_objects)], axis=1)
-    return Segmentation(masks=masks, intensities=levels[1:] - levels[0], route=chosen, background=float(levels[0]),
+    masks, intensities = nest(masks, levels)
+    return Segmentation(masks=masks, intensities=intensities, route=chosen, background=float(levels[0]),
                         smoothing_px=smoothing)
+
+
+def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Objects inside a dimmer object add to it, as attenuation does: where most of a brighter
+    object's pixels lie in the holes of a dimmer one's mask, the dimmer mask is filled through
+    it and the brighter object's intensity becomes its level minus the container's. A static
+    body around a moving vessel then stays static, with no moving hole to follow the vessel.
+    masks [F, K, H, W] (one level each, as assigned), levels [K + 1] (background first) ->
+    masks, intensities [K] (above the container, or the background)."""
+    masks = masks.copy()
+    intensities = levels[1:] - levels[0]
+    order = np.argsort(levels[1:])
+    for n, j in enumerate(order):  # containers, dimmest first, so a chain nests level by level
+        filled = np.stack([binary_fill_holes(m) for m in masks[:, j]])
+        for k in order[n + 1:]:
+            if (filled & masks[:, k]).sum() > 0.5 * max(1, masks[:, k].sum()):
+                masks[:, j] |= masks[:, k] & filled
+                intensities[k] = levels[k + 1] - levels[j + 1]
+    return masks, intensities
 
 
 def smoothed_until_found(frames: np.ndarray, n_objects: int) -> tuple[np.ndarray, float, float]:
