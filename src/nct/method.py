@@ -164,7 +164,7 @@ def reconstruct(
     grid = lengths.grid(grid)
     fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
-    fbp, sino = fbp * (lengths.intensity / units.intensity), units.sinogram(sino)
+    fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
     seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),

@@ -105,7 +105,8 @@ def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     for n, j in enumerate(order):  # containers, dimmest first, so a chain nests level by level
         filled = np.stack([binary_fill_holes(m) for m in masks[:, j]])
         for k in order[n + 1:]:
-            if (filled & masks[:, k]).sum() > 0.5 * max(1, masks[:, k].sum()):
+            brighter = levels[k + 1] > levels[j + 1]
+            if brighter and (filled & masks[:, k]).sum() > 0.5 * max(1, masks[:, k].sum()):
                 masks[:, j] |= masks[:, k] & filled
                 intensities[k] = levels[k + 1] - levels[j + 1]
     return masks, intensities
