@@ -66,8 +66,17 @@ def test_frequencies_follow_seed_and_f_max():
 
 
 def test_describe_counts_parameters():
+    """n_params counts the shape g; a(k), one per object, is the model's too but not counted."""
     f = field(n_terms=3)
-    assert f.describe()["n_params"] == sum(p.numel() for p in f.parameters())
+    assert f.describe()["n_params"] == sum(p.numel() for p in f.parameters()) - f.n_objects
+
+
+def test_field_owns_its_intensities():
+    f = field(n_terms=3)
+    f.set_intensities(torch.tensor([0.25] * f.n_objects))
+    torch.testing.assert_close(f.intensities, torch.full((f.n_objects,), 0.25))
+    assert "log_intensities" in f.state_dict()
+    assert all(p is not f.log_intensities for p in f.shape_parameters())
 
 
 @pytest.mark.parametrize("key, value", [("family", "mlp"), ("width", 0), ("n_terms", -1), ("f_max", -0.1),

@@ -55,12 +55,15 @@ class Field(nn.Module):
     """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs.
 
     x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
-    w_i ~ N(0, f_max) are drawn once from ``generator``.
+    w_i ~ N(0, f_max) are drawn once from ``generator``. The model also owns each object's
+    intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``), so one
+    checkpoint holds everything that renders the image.
     """
 
     def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
         super().__init__()
         self.n_objects = n_objects
+        self.log_intensities = nn.Parameter(torch.zeros(n_objects))
         self.n_terms = conf.n_terms
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
@@ -72,6 +75,20 @@ class Field(nn.Module):
         if temporal:
             return Siren(2, conf.temporal_width, conf.temporal_depth, n_out, conf.omega0)
         return Siren(2, conf.width, conf.depth, n_out, conf.omega0)
+
+    @property
+    def intensities(self) -> Tensor:
+        """a(k) [K]."""
+        return self.log_intensities.exp()
+
+    @torch.no_grad()
+    def set_intensities(self, values: Tensor) -> None:
+        """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
+        self.log_intensities.copy_(values.to(self.log_intensities).log())
+
+    def shape_parameters(self) -> list[nn.Parameter]:
+        """The parameters of g (all but a(k))."""
+        return [p for p in self.parameters() if p is not self.log_intensities]
 
     def coefficients(self, xy: Tensor) -> Coefficients:
         """Evaluate both spatial parts once at points ``xy`` [P, 2]; time enters later by ``sdf``."""
@@ -114,7 +131,7 @@ class Field(nn.Module):
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
         return {
-            "n_params": sum(p.numel() for p in self.parameters()),
+            "n_params": sum(p.numel() for p in self.shape_parameters()),
             "n_terms": self.n_terms,
             "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
@@ -177,14 +194,35 @@ def lattice_points(size: int) -> Tensor:
 
 def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
     """Linear interpolation from ``cells`` nodes spanning [-1, 1] to coordinates u [n]: [n, cells]."""
-    pos = ((u + 1) / 2 * (cells - 1)).clamp(0, cells - 1)
-    left = pos.floor().long().clamp(max=cells - 2)
+    return _linear_weights((u + 1) / 2 * (cells - 1), cells)
+
+
+def _linear_weights(pos: Tensor, cells: int) -> Tensor:
+    """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [n] in node
+    units, constant beyond the ends: [n, cells]."""
+    pos = pos.clamp(0, cells - 1)
+    left = pos.floor().long().clamp(min=0, max=max(cells - 2, 0))
     weight = pos - left
-    rows = torch.arange(u.shape[0])
-    m = torch.zeros(u.shape[0], cells, dtype=u.dtype, device=u.device)
+    rows = torch.arange(pos.shape[0])
+    m = torch.zeros(pos.shape[0], cells, dtype=pos.dtype, device=pos.device)
     m[rows, left] = 1 - weight
     m[rows, left + 1] = weight
     return m
+
+
+@lru_cache(maxsize=8)
+def upsampling_matrix(size: int, lattice: int) -> Tensor:
+    """Bilinear resampling, one axis, from the pixel centres of a ``lattice``-pixel image to those
+    of a ``size``-pixel image of the same extent: [size, lattice] (F.interpolate's
+    align_corners=False, as a matrix: its backward is a product too, far cheaper on a CPU).
+    Cached: do not modify."""
+    return _linear_weights((pixel_centres(size) + 1) / 2 * lattice - 0.5, lattice)
+
+
+def upsample(images: Tensor, size: int) -> Tensor:
+    """Bilinear upsampling of square images [..., n, n] to [..., size, size] (see upsampling_matrix)."""
+    m = upsampling_matrix(size, images.shape[-1]).to(images)
+    return m @ images @ m.T
 
 
 @lru_cache(maxsize=32)

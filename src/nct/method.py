@@ -94,21 +94,24 @@ class _Problem:
     log_dir: Path | None
     logger: str
     trainer: TrainerConf
+    check_every: int
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
-              render: RenderConf, targets: np.ndarray, amplitudes: torch.Tensor, stages: dict) -> SinogramFit:
-    """One pass: InitFit to SDF ``targets`` then SinogramFit; records both stages in ``stages``."""
+              render: RenderConf, targets: np.ndarray, stages: dict, lattice: int | None = None) -> SinogramFit:
+    """One pass: InitFit to SDF ``targets`` then SinogramFit, the field on a ``lattice``^2 lattice
+    (None: the grid's); records both stages in ``stages``."""
     init_steps, fit_steps = steps
     n_init = prob.init_times.shape[0]
-    init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times)
+    init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
     stages[prefix + "init"] = run_stage(
         init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
         init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger)
-    fit = SinogramFit(net, prob.grid, optim, render, prob.loss, prob.views, amplitudes, fit_steps)
+    fit = SinogramFit(net, prob.grid, optim, render, prob.loss, prob.views, fit_steps, lattice)
     stages[prefix + "fit"] = run_stage(
-        fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng)),
-        fit_steps, prefix + "fit", prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),))
+        fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
+        fit_steps, prefix + "fit", prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
+        prob.check_every)
     return fit
 
 
@@ -169,16 +172,17 @@ def reconstruct(
     targets = masks_to_sdf(seg.masks, grid.pixel_size)
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
-    prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer)
-    amplitudes = torch.tensor(seg.intensities, dtype=torch.float32)
+    prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
+                    heldout.check_every)
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit]] = {}
 
     def fit_rung(n_terms: int) -> Rung:
         net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
+        net.set_intensities(torch.tensor(seg.intensities, dtype=torch.float32))
         fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
-                        optim, render, targets, amplitudes, stages)
+                        optim, render, targets, stages, optim.coarse_size)
         fitted[n_terms] = net, fit
         return Rung(n_terms, _heldout(prob, fit), net.describe()["n_params"])
 
@@ -191,9 +195,9 @@ def reconstruct(
         targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size)
         fit = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
-                        targets, fit.intensities.detach().cpu(), stages)
+                        targets, stages)
 
-    amplitudes = fit.intensities.detach().cpu()
+    amplitudes = net.intensities.detach().cpu()
     sdf = field_frames(fit, clock(frame_times))
     frames = intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity

@@ -11,6 +11,7 @@ without torch, so that parsing a config (``nct.config``) stays cheap.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 from nct.errors import require
 
@@ -138,6 +139,10 @@ class OptimConf:
     fit_intensities: SinogramFit also fits a(k), from Algorithm 1's estimate, at intensity_lr
     (Adam on log a): FBP of fast motion has no histogram peak at the object's level.
     divergence_factor: stop with DivergenceError once a loss exceeds this multiple of its start.
+    coarse_size: side of the lattice on which the first pass evaluates the field, bilinearly
+    upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
+    the field costs (image / coarse)^2 less per step); the refinement uses the image's own
+    lattice. null, or not below the image size: the image's lattice throughout.
     """
 
     init_steps: int = 300
@@ -155,8 +160,11 @@ class OptimConf:
     fit_intensities: bool = True
     intensity_lr: float = 1e-2
     divergence_factor: float = 20.0
+    coarse_size: Optional[int] = 64
 
     def __post_init__(self) -> None:
+        require(self.coarse_size is None or self.coarse_size >= 8, "optim.coarse_size", ">= 8 or null",
+                self.coarse_size)
         for key in ("lr_decay_every", "batch_views"):
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
         for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):
@@ -218,9 +226,13 @@ class InitConf:
 @dataclass
 class HeldoutConf:
     """The held-out split (config group ``heldout``): every n-th view is kept out of every fit
-    (FBP included) and scores it, a truth-free number (0 or 1: none held out)."""
+    (FBP included) and scores it, a truth-free number (0 or 1: none held out). check_every:
+    SinogramFit scores them as Lightning validation every this many steps (``val/heldout_loss``
+    in TensorBoard; 0: only after each pass)."""
 
     every: int = 10
+    check_every: int = 100
 
     def __post_init__(self) -> None:
         require(self.every >= 0, "heldout.every", ">= 0", self.every)
+        require(self.check_every >= 0, "heldout.check_every", ">= 0", self.check_every)

@@ -33,14 +33,13 @@ from nct.stages import FieldStage
 class FittedRun:
     """What rendering a run's field needs.
 
-    field: the fitted field (method units); intensities: a(k) [K] in method units; units: the
+    field: the fitted field with its a(k) (method units); units: the
     run's units (normalise.py); grid: the run's own grid (data units); clock: seconds ->
     rotations since the first view; span: (first, last) second of the acquisition; render: the
     run's occupancy settings; fps: the run's movie frame rate; checkpoint: the file loaded.
     """
 
     field: Field
-    intensities: torch.Tensor
     units: Units
     grid: ImageGrid
     clock: Callable[[np.ndarray], torch.Tensor]
@@ -113,8 +112,7 @@ def load_run(run_dir: Path) -> FittedRun:
     with np.load(run_dir / "reconstruction.npz") as rec:
         grid = ImageGrid(int(rec["nct"].shape[-1]), float(rec["extent"]))
     sino = load_sinogram(run_dir / "sinogram.npz")
-    a = torch.tensor(metrics["intensities"], dtype=torch.float64) / units.intensity
-    return FittedRun(net, a.float(), units, grid, rotations_since_start(sino), acquisition_span(sino.times),
+    return FittedRun(net, units, grid, rotations_since_start(sino), acquisition_span(sino.times),
                      _typed(RenderConf, cfg.render), float(cfg.export.fps), path)
 
 
@@ -129,6 +127,6 @@ def render(run: FittedRun, times: np.ndarray, size: int) -> tuple[np.ndarray, np
     band = run.render.band_px * run.units.grid(run.grid).pixel_size
     grid = run.units.grid(ImageGrid(size, run.grid.extent))
     sdf = field_frames(FieldStage(run.field, grid, OptimConf()), run.clock(times))
-    frames = intensity(torch.from_numpy(sdf), run.intensities, band, run.render.mu).numpy()
+    frames = intensity(torch.from_numpy(sdf), run.field.intensities.detach(), band, run.render.mu).numpy()
     frames, sdf = frames * run.units.intensity, sdf * run.units.length
     return frames.astype(np.float32), sdf.astype(np.float32)

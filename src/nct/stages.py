@@ -25,7 +25,7 @@ from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
 from nct.errors import DivergenceError, InputError
-from nct.fields import Field
+from nct.fields import Field, upsample
 from nct.geometry import Geometry
 from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.progress import StageBar, log_stage, show_bar
@@ -81,22 +81,27 @@ def band_at(step: int, steps: int, conf: RenderConf) -> float:
 class FieldStage(L.LightningModule):
     """What both stages share: the field on the grid and Adam with warmup and step decay."""
 
-    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf) -> None:
+    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, lattice: int | None = None) -> None:
         super().__init__()
         self.field = field
         self.grid = grid
         self.optim = optim
+        self.lattice = min(lattice or grid.size, grid.size)
 
     def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
-        """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt in FOV sides per rotation."""
-        c = self.field.on_lattice(self.grid.size)
-        shape = (times.shape[0], self.field.n_objects, self.grid.size, self.grid.size)
+        """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt [T, K, P] in FOV sides per
+        rotation. The field is evaluated on ``lattice``^2 points (P) and upsampled bilinearly to the grid."""
+        n = self.lattice
+        c = self.field.on_lattice(n)
         rate = self.field.sdf_rate(c, times) / self.grid.extent
-        return self.field.sdf(c, times).reshape(shape), rate
+        sdf = self.field.sdf(c, times).reshape(times.shape[0], self.field.n_objects, n, n)
+        if n < self.grid.size:
+            sdf = upsample(sdf, self.grid.size)
+        return sdf, rate
 
     def param_groups(self) -> list[dict]:
-        """Adam's parameter groups: the field at optim.lr."""
-        return [{"params": list(self.field.parameters()), "name": "field"}]
+        """Adam's parameter groups: the field's shape at optim.lr."""
+        return [{"params": self.field.shape_parameters(), "name": "field"}]
 
     def configure_optimizers(self):
         conf = self.optim
@@ -116,8 +121,8 @@ class InitFit(FieldStage):
     """
 
     def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, loss: LossConf,
-                 targets: Tensor, times: Tensor) -> None:
-        super().__init__(field, grid, optim)
+                 targets: Tensor, times: Tensor, lattice: int | None = None) -> None:
+        super().__init__(field, grid, optim, lattice)
         self.loss_conf = loss
         self.register_buffer("targets", targets, persistent=False)
         self.register_buffer("times", times, persistent=False)
@@ -143,8 +148,8 @@ class SinogramFit(FieldStage):
     plus eikonal, tv_space and tv_time terms; the occupancy band narrows as steps go."""
 
     def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
-                 views: Views, intensities: Tensor, steps: int) -> None:
-        super().__init__(field, grid, optim)
+                 views: Views, steps: int, lattice: int | None = None) -> None:
+        super().__init__(field, grid, optim, lattice)
         self.render_conf = render
         self.loss_conf = loss
         self.steps = steps
@@ -153,17 +158,17 @@ class SinogramFit(FieldStage):
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
         self.register_buffer("times", views.times, persistent=False)
-        self.log_intensities = torch.nn.Parameter(intensities.log(), requires_grad=optim.fit_intensities)
 
     @property
     def intensities(self) -> Tensor:
-        """a(k) [K]: fitted with the field when ``fit_intensities`` (log-parameterised, stays > 0)."""
-        return self.log_intensities.exp()
+        """a(k) [K], the field's: fitted with its shape when ``optim.fit_intensities``."""
+        return self.field.intensities
 
     def param_groups(self) -> list[dict]:
         groups = super().param_groups()
         if self.optim.fit_intensities:
-            groups.append({"params": [self.log_intensities], "lr": self.optim.intensity_lr, "name": "intensities"})
+            groups.append({"params": [self.field.log_intensities], "lr": self.optim.intensity_lr,
+                           "name": "intensities"})
         return groups
 
     def band(self) -> float:
@@ -190,14 +195,27 @@ class SinogramFit(FieldStage):
         return loss
 
     @torch.no_grad()
+    def misfit_sum(self, views: Tensor) -> Tensor:
+        """Sum of |rendered - measured| over ``views`` [v], with the final band, over the data's scale."""
+        band = self.render_conf.band_px * self.grid.pixel_size
+        sdf, _ = self.grid_sdf(self.times[views])
+        return (self.render(sdf, views, band) - self.values[views]).abs().sum() / self.scale
+
     def sinogram_loss(self, views: Tensor, chunk: int = 64) -> float:
         """Relative L1 misfit over ``views`` [v] with the final band (e.g. held-out views)."""
-        band = self.render_conf.band_px * self.grid.pixel_size
-        total = 0.0
-        for part in views.to(self.device).split(chunk):
-            sdf, _ = self.grid_sdf(self.times[part])
-            total += float((self.render(sdf, part, band) - self.values[part]).abs().sum())
-        return total / max(1, views.numel() * self.values.shape[1]) / self.scale
+        total = sum(float(self.misfit_sum(part)) for part in views.to(self.device).split(chunk))
+        return total / max(1, views.numel() * self.values.shape[1])
+
+    def on_validation_epoch_start(self) -> None:
+        self._held_sum, self._held_count = 0.0, 0
+
+    def validation_step(self, batch: Tensor, batch_idx: int) -> None:
+        """Held-out views ``batch`` [v]: their misfit adds to ``val/heldout_loss``, the truth-free score."""
+        self._held_sum += float(self.misfit_sum(batch))
+        self._held_count += batch.numel() * self.values.shape[1]
+
+    def on_validation_epoch_end(self) -> None:
+        self.log("val/heldout_loss", self._held_sum / max(1, self._held_count))
 
     @torch.no_grad()
     def preview(self, n: int) -> Tensor:
@@ -230,14 +248,21 @@ class IndexBatches(IterableDataset):
 
 
 class IndexDataModule(L.LightningDataModule):
-    """Serves ``IndexBatches``: the timepoints (views or SDF frames) of each step."""
+    """Serves ``IndexBatches``: the timepoints (views or SDF frames) of each step; and the
+    held-out views ``held`` in chunks for validation (none: no validation)."""
 
-    def __init__(self, pool: np.ndarray, batch: int, steps: int, seed: int) -> None:
+    def __init__(self, pool: np.ndarray, batch: int, steps: int, seed: int, held: np.ndarray | None = None,
+                 chunk: int = 64) -> None:
         super().__init__()
         self.batches = IndexBatches(pool, batch, steps, seed)
+        self.held = [torch.from_numpy(part) for part in np.array_split(held, -(-len(held) // chunk))] \
+            if held is not None and len(held) else []
 
     def train_dataloader(self) -> DataLoader:
         return DataLoader(self.batches, batch_size=None)
+
+    def val_dataloader(self) -> DataLoader:
+        return DataLoader(self.held, batch_size=None)
 
 
 class MinLossStop(Callback):
@@ -318,10 +343,13 @@ def quiet_lightning() -> Iterator[None]:
 
 
 def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, conf: TrainerConf,
-              log_dir: Path | None, logger: str, extra_callbacks: tuple[Callback, ...] = ()) -> dict:
+              log_dir: Path | None, logger: str, extra_callbacks: tuple[Callback, ...] = (),
+              check_every: int = 0) -> dict:
     """Fit ``module`` for ``steps`` in a fresh Trainer with its own logger version and checkpoint
     folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time.
-    ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``."""
+    ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``.
+    With held-out views in ``data`` and ``check_every`` > 0, Lightning validates every
+    ``check_every`` steps and at the end (``val/heldout_loss``)."""
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
     check_accelerator(conf.accelerator)
@@ -343,14 +371,22 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
             accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
             logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
             enable_progress_bar=bar, enable_model_summary=False,
-            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0, limit_val_batches=0,
+            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0,
+            **validation(steps, check_every if data.held else 0),
         )
         trainer.fit(module, datamodule=data)
         if log_dir is not None:
             trainer.save_checkpoint(Path(log_dir) / "checkpoints" / name / "last.ckpt")
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
-              if k.startswith("train/")}
+              if k.startswith(("train/", "val/"))}
     result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
     if not bar:
         log_stage(name, result)
     return result
+
+
+def validation(steps: int, every: int) -> dict:
+    """Trainer settings that validate every ``every`` steps and after the last (0: never)."""
+    if every <= 0:
+        return {"limit_val_batches": 0}
+    return {"val_check_interval": min(every, steps), "check_val_every_n_epoch": None}
