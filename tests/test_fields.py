@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from nct.fields import GridField, ModelConf, build_field
+from nct.fields import GridField, ModelConf, build_field, upsample
 
 XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
 SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
@@ -132,3 +132,11 @@ def test_grid_family_sizes_and_validation():
         ModelConf(family="grid", resolution=4, levels=3)
     with pytest.raises(ValueError, match="model.family must be one of"):
         ModelConf(family="hashgrid")
+
+
+@pytest.mark.parametrize("n, size", [(16, 32), (5, 13), (64, 128)])
+def test_upsample_is_bilinear_between_pixel_centres(n, size):
+    """upsample equals torch's bilinear interpolation (align_corners=False) of the same images."""
+    images = torch.randn(3, 2, n, n, dtype=torch.float64)
+    expected = torch.nn.functional.interpolate(images, size=(size, size), mode="bilinear", align_corners=False)
+    torch.testing.assert_close(upsample(images, size), expected, atol=2e-6, rtol=0)

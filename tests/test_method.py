@@ -13,7 +13,7 @@ from nct.errors import DivergenceError
 from nct.method import reconstruct, rotations_since_start, split_views
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram, Truth
-from nct.method_conf import LossConf, RenderConf
+from nct.method_conf import HeldoutConf, LossConf, RenderConf
 from nct.stages import DivergenceCheck
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER, moving_disc
 
@@ -106,3 +106,23 @@ def test_bad_arguments(acquisition):
         RenderConf(band_px=2.0, band_start_px=1.0)
     with pytest.raises(ValueError, match="loss.tv_time"):
         LossConf(tv_time=-1.0)
+
+
+def test_heldout_views_are_scored_as_validation(acquisition):
+    """val/heldout_loss is Lightning's validation of the held-out views: after the last step it
+    equals the held-out score the result reports."""
+    sino, times = acquisition
+    result = run(sino, times, heldout=HeldoutConf(every=10, check_every=OPTIM.fit_steps // 2))
+    assert result.stages["fit"]["losses"]["val/heldout_loss"] == pytest.approx(result.heldout_loss, rel=1e-5)
+    off = run(sino, times, heldout=HeldoutConf(every=10, check_every=0))
+    assert "val/heldout_loss" not in off.stages["fit"]["losses"]
+    np.testing.assert_array_equal(off.frames, result.frames)  # scoring never changes the fit
+
+
+def test_coarse_lattice_fits_as_well(acquisition):
+    """The first pass on a lattice half the image's side explains the held-out views about as well."""
+    sino, times = acquisition
+    full = run(sino, times)
+    coarse = run(sino, times, replace(OPTIM, coarse_size=16))
+    assert not np.array_equal(coarse.frames, full.frames)
+    assert coarse.heldout_loss < 1.3 * full.heldout_loss
