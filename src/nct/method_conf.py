@@ -148,8 +148,8 @@ class OptimConf:
     init_steps: int = 300
     fit_steps: int = 1000
     refine: bool = True
-    refine_init_steps: int = 100
-    refine_fit_steps: int = 300
+    refine_init_steps: int = 50
+    refine_fit_steps: int = 150
     refine_lr: float = 1e-4
     lr: float = 1e-3
     warmup_steps: int = 50

@@ -99,6 +99,13 @@ class FieldStage(L.LightningModule):
             sdf = upsample(sdf, self.grid.size)
         return sdf, rate
 
+    def log_due(self, values: dict[str, Tensor]) -> None:
+        """Log ``values`` on the steps the Trainer writes (its count starts at 1) and the last step
+        only: Lightning's bookkeeping of logged values costs about as much as a coarse step."""
+        step, trainer = self.global_step + 1, self.trainer
+        if step % trainer.log_every_n_steps == 0 or step >= trainer.max_steps:
+            self.log_dict(values)
+
     def param_groups(self) -> list[dict]:
         """Adam's parameter groups: the field's shape at optim.lr."""
         return [{"params": self.field.shape_parameters(), "name": "field"}]
@@ -132,7 +139,7 @@ class InitFit(FieldStage):
         misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
         eikonal = eikonal_loss(*spatial_gradient(sdf, self.grid.pixel_size))
         loss = misfit + self.loss_conf.init_eikonal * eikonal
-        self.log_dict({"train/sdf": misfit, "train/eikonal": eikonal, "train/loss": loss})
+        self.log_due({"train/sdf": misfit, "train/eikonal": eikonal, "train/loss": loss})
         return loss
 
     @torch.no_grad()
@@ -180,7 +187,7 @@ class SinogramFit(FieldStage):
         return project_frames(sdf, self.intensities, self.angles[views], self.geometry, self.grid.extent, band,
                               self.render_conf.mu, self.render_conf.k_samp)
 
-    def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
+    def training_step(self, batch: Tensor, batch_idx: int) -> dict[str, Tensor]:
         band = self.band()
         sdf, rate = self.grid_sdf(self.times[batch])
         sinogram = (self.render(sdf, batch, band) - self.values[batch]).abs().mean() / self.scale
@@ -191,8 +198,8 @@ class SinogramFit(FieldStage):
         loss = sinogram + w.eikonal * terms["eikonal"] + w.tv_space * terms["tv_space"] + w.tv_time * terms["tv_time"]
         extra = {"train/loss": loss, "train/band_px": band / self.grid.pixel_size}
         extra |= {f"train/intensity_{k}": a for k, a in enumerate(self.intensities.detach())}
-        self.log_dict({f"train/{k}": v for k, v in terms.items()} | extra)
-        return loss
+        self.log_due({f"train/{k}": v for k, v in terms.items()} | extra)
+        return {"loss": loss, "sinogram": sinogram.detach()}
 
     @torch.no_grad()
     def misfit_sum(self, views: Tensor) -> Tensor:
@@ -272,8 +279,7 @@ class MinLossStop(Callback):
         self.min_loss = min_loss
 
     def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
-        value = trainer.callback_metrics.get("train/sinogram")
-        if value is not None and float(value) < self.min_loss:
+        if self.min_loss > 0 and float(outputs["sinogram"]) < self.min_loss:
             trainer.should_stop = True
 
 
