@@ -130,3 +130,25 @@ def test_method_failure_is_one_line_exit_1_and_recorded(tmp_path):
     status = read(tmp_path / "run" / "status.json")
     assert status["status"] == "diverged" and status["error"].startswith("DivergenceError")
     assert "traceback" not in status
+
+
+def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tmp_path):
+    """A run killed after its first passes resumes from their checkpoints and ends exactly where
+    an uninterrupted run ends; the finished stages are loaded, not run again."""
+    steps = ("optim.refine=true", "optim.refine_init_steps=5", "optim.refine_fit_steps=5", "logger=none")
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    run_job(tiny_cfg(*steps), whole, list(steps))
+    run_job(tiny_cfg(*steps), killed, list(steps))
+    # As if killed during the refinement: its stages unfinished, no metrics, status still running.
+    for stage in ("refine_init", "refine_fit"):
+        for path in (killed / "checkpoints" / stage).iterdir():
+            path.unlink()
+    (killed / "metrics.json").unlink()
+    status = read(killed / "status.json")
+    (killed / "status.json").write_text(json.dumps(status | {"status": "running"}))
+    run_job(tiny_cfg(*steps, "resume=true"), killed, list(steps))
+    stages = read(killed / "metrics.json")["stages"]
+    assert stages["init"]["resumed"] and stages["fit"]["resumed"]
+    assert "resumed" not in stages["refine_fit"] and stages["refine_fit"]["steps"] == 5
+    np.testing.assert_array_equal(np.load(killed / "reconstruction.npz")["nct"],
+                                  np.load(whole / "reconstruction.npz")["nct"])

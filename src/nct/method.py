@@ -95,6 +95,7 @@ class _Problem:
     logger: str
     trainer: TrainerConf
     check_every: int
+    resume: bool
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
@@ -106,12 +107,12 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
     stages[prefix + "init"] = run_stage(
         init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
-        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger)
+        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, resume=prob.resume)
     fit = SinogramFit(net, prob.grid, optim, render, prob.loss, prob.views, fit_steps, lattice)
     stages[prefix + "fit"] = run_stage(
         fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
         fit_steps, prefix + "fit", prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
-        prob.check_every)
+        prob.check_every, prob.resume)
     return fit
 
 
@@ -137,6 +138,7 @@ def reconstruct(
     render: RenderConf | None = None,
     init: InitConf | None = None,
     heldout: HeldoutConf | None = None,
+    resume: bool = False,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
@@ -144,7 +146,8 @@ def reconstruct(
     intensities returned in the data's. ``trainer``: Lightning's settings; ``optim``, ``render``,
     ``init``, ``heldout``: the config groups of those names (their defaults when None). With
     ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``) and the
-    refinement continues the chosen rung.
+    refinement continues the chosen rung. ``resume``: stages that finished before in ``log_dir``
+    are loaded from their checkpoints, not run again (``stages.run_stage``).
     """
     capacity = capacity or CapacityConf()
     optim, render = optim or OptimConf(), render or RenderConf()
@@ -173,13 +176,15 @@ def reconstruct(
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
-                    heldout.check_every)
+                    heldout.check_every, resume)
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit]] = {}
 
     def fit_rung(n_terms: int) -> Rung:
-        net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
+        with torch.random.fork_rng():  # each rung's weights from the seed alone, whatever ran before (resume)
+            torch.manual_seed(seed)
+            net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
         net.set_intensities(torch.tensor(seg.intensities, dtype=torch.float32))
         fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
                         optim, render, targets, stages, optim.coarse_size)

@@ -76,6 +76,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             log_dir=out_dir, logger=conf.logger.name,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
             capacity=conf.capacity, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
+            resume=conf.resume,
         )
         frames["nct"] = result.frames
         extra = {"heldout_loss": result.heldout_loss, "capacity": result.capacity, "stages": result.stages,
@@ -174,13 +175,14 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) 
             if not conf.resume:
                 raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
                                  "or choose another output folder")
-            if previous.get("overrides") != settings:
-                raise InputError(f"resume: {out_dir} holds a finished run with other settings "
-                                 f"({previous.get('overrides')}), not {settings}: use a new sweep folder")
     except InputError as err:
         if previous is None or previous.get("status") != "ok":
             record("failed", f"InputError: {err}")
         raise
+    if conf.resume and previous is not None and previous.get("overrides") != settings:
+        # Left as it is: that run's record and checkpoints belong to its own settings.
+        raise InputError(f"resume: {out_dir} holds a run with other settings ({previous.get('overrides')}), "
+                         f"not {settings}: it cannot continue this one; use a new folder")
     if conf.resume and previous is not None and previous.get("status") == "ok":
         log.info("resume: %s already finished, skipped", out_dir)
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")

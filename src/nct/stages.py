@@ -7,6 +7,7 @@ differences on the grid. The modules only optimise; data, export and metrics liv
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import time
@@ -31,6 +32,9 @@ from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerCon
 from nct.progress import StageBar, log_stage, show_bar
 from nct.render import intensity, project_frames
 from nct.scanner import ImageGrid
+
+log = logging.getLogger(__name__)
+RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
 
 @dataclass(frozen=True)
 class Views:
@@ -336,32 +340,41 @@ def check_accelerator(accelerator: str) -> None:
 def quiet_lightning() -> Iterator[None]:
     """Silence Lightning's per-Trainer banners (accelerator, tips, "max_steps reached") and the
     warning about our sized iterable dataset, which has no workers to confuse."""
-    log = logging.getLogger("lightning.pytorch")
-    level = log.level
-    log.setLevel(logging.WARNING)
+    lightning_log = logging.getLogger("lightning.pytorch")
+    level = lightning_log.level
+    lightning_log.setLevel(logging.WARNING)
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*IterableDataset.*__len__.*")
             warnings.filterwarnings("ignore", message=".*LeafSpec.*")
             yield
     finally:
-        log.setLevel(level)
+        lightning_log.setLevel(level)
 
 
 def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, conf: TrainerConf,
               log_dir: Path | None, logger: str, extra_callbacks: tuple[Callback, ...] = (),
-              check_every: int = 0) -> dict:
+              check_every: int = 0, resume: bool = False) -> dict:
     """Fit ``module`` for ``steps`` in a fresh Trainer with its own logger version and checkpoint
     folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time.
     ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``.
     With held-out views in ``data`` and ``check_every`` > 0, Lightning validates every
-    ``check_every`` steps and at the end (``val/heldout_loss``)."""
+    ``check_every`` steps (``val/heldout_loss``). ``resume``: a stage that finished before in
+    ``log_dir`` is not run again; its checkpoint is loaded and its record returned (each stage
+    starts a fresh optimiser, so this continues a killed run exactly)."""
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
     check_accelerator(conf.accelerator)
     start = time.perf_counter()
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
+    folder = Path(log_dir) / "checkpoints" / name if log_dir is not None else None
+    if resume and folder is not None and (folder / RECORD).is_file():
+        weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
+        module.load_state_dict(weights)
+        log.info("resume: stage %s loaded from %s", name, folder)
+        return json.loads((folder / RECORD).read_text()) | {"resumed": True}
+    every = check_every if data.held else 0
     callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
     bar = show_bar(conf.progress_bar)
     callbacks += [StageBar(name)] if bar else []
@@ -378,21 +391,24 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
             logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
             enable_progress_bar=bar, enable_model_summary=False,
             log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0,
-            **validation(steps, check_every if data.held else 0),
+            **validation(steps, every),
         )
-        trainer.fit(module, datamodule=data)
-        if log_dir is not None:
-            trainer.save_checkpoint(Path(log_dir) / "checkpoints" / name / "last.ckpt")
+        trainer.fit(module, train_dataloaders=data.train_dataloader(),
+                    val_dataloaders=data.val_dataloader() if every else None)
+        if folder is not None:
+            trainer.save_checkpoint(folder / "last.ckpt")
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith(("train/", "val/"))}
     result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    if folder is not None:
+        (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
     if not bar:
         log_stage(name, result)
     return result
 
 
 def validation(steps: int, every: int) -> dict:
-    """Trainer settings that validate every ``every`` steps and after the last (0: never)."""
+    """Trainer settings that validate every ``every`` steps (0: never)."""
     if every <= 0:
         return {"limit_val_batches": 0}
     return {"val_check_interval": min(every, steps), "check_val_every_n_epoch": None}
