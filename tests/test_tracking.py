@@ -105,3 +105,16 @@ def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
     assert capacity["choice"]["reason"] in text and "grid field" in text
     assert "| terms | held-out loss | parameters |\n|---|---|---|\n| 0 | " in text
+
+
+def test_stages_log_previews_residuals_and_heldout_validation(tiny_cfg, run_dir):
+    """The image callback draws each stage's frames (and SinogramFit's residual) from its field;
+    SinogramFit's held-out views are scored as Lightning validation."""
+    run_job(tiny_cfg("method=nct", "heldout.check_every=2", "export.gif=false", "export.tiff=false"), run_dir)
+    init, fit = (EventAccumulator(str(run_dir / "tb" / name)) for name in ("init", "fit"))
+    init.Reload(), fit.Reload()
+    assert set(init.Tags()["images"]) == {"init/frames"}
+    assert set(fit.Tags()["images"]) == {"fit/frames", "fit/sinogram_residual"}
+    held = fit.Scalars("val/heldout_loss")
+    # After steps 2 and 4 of 5; Lightning files them under the last training step's 0-based index.
+    assert [s.step for s in held] == [1, 3] and all(0 < s.value < 2 for s in held)

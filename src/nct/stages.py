@@ -146,13 +146,6 @@ class InitFit(FieldStage):
         self.log_due({"train/sdf": misfit, "train/eikonal": eikonal, "train/loss": loss})
         return loss
 
-    @torch.no_grad()
-    def preview(self, n: int) -> Tensor:
-        """Target | fitted SDF > 0 at n evenly spaced target times: [2, n, H, W] in [0, 1]."""
-        pick = torch.linspace(0, self.times.shape[0] - 1, n).round().long()
-        sdf, _ = self.grid_sdf(self.times[pick])
-        return torch.stack([(self.targets[pick] > 0).any(1), (sdf > 0).any(1)]).float()
-
 
 class SinogramFit(FieldStage):
     """Algorithm 4: render the field at each sampled view's time and angle, L1 to the data,
@@ -228,20 +221,6 @@ class SinogramFit(FieldStage):
     def on_validation_epoch_end(self) -> None:
         self.log("val/heldout_loss", self._held_sum / max(1, self._held_count))
 
-    @torch.no_grad()
-    def preview(self, n: int) -> Tensor:
-        """Intensity frames at n evenly spaced view times: [1, n, H, W]."""
-        pick = torch.linspace(0, self.times.shape[0] - 1, n).round().long()
-        sdf, _ = self.grid_sdf(self.times[pick])
-        return intensity(sdf, self.intensities, self.band(), self.render_conf.mu)[None]
-
-    @torch.no_grad()
-    def residual(self, n: int) -> Tensor:
-        """Rendered minus measured sinogram at n evenly spaced views, over the data's max: [n, n_bins]."""
-        pick = torch.linspace(0, self.times.shape[0] - 1, n).round().long()
-        sdf, _ = self.grid_sdf(self.times[pick])
-        return (self.render(sdf, pick, self.band()) - self.values[pick]) / self.values.abs().max().clamp_min(1e-12)
-
 
 class IndexBatches(IterableDataset):
     """``steps`` random minibatches of ``batch`` indices drawn without replacement from ``pool``."""
@@ -305,8 +284,37 @@ class DivergenceCheck(Callback):
             )
 
 
+def evenly(times: Tensor, n: int) -> Tensor:
+    """Indices of n evenly spaced entries of ``times`` [T]."""
+    return torch.linspace(0, times.shape[0] - 1, n).round().long().to(times.device)
+
+
+@torch.no_grad()
+def init_preview(stage: InitFit, n: int) -> Tensor:
+    """Target | fitted SDF > 0 at n evenly spaced target times: [2, n, H, W] in [0, 1]."""
+    pick = evenly(stage.times, n)
+    sdf, _ = stage.grid_sdf(stage.times[pick])
+    return torch.stack([(stage.targets[pick] > 0).any(1), (sdf > 0).any(1)]).float()
+
+
+@torch.no_grad()
+def fit_preview(stage: SinogramFit, n: int) -> Tensor:
+    """Intensity frames at n evenly spaced view times, at the current band: [1, n, H, W]."""
+    sdf, _ = stage.grid_sdf(stage.times[evenly(stage.times, n)])
+    return intensity(sdf, stage.intensities, stage.band(), stage.render_conf.mu)[None]
+
+
+@torch.no_grad()
+def fit_residual(stage: SinogramFit, n: int) -> Tensor:
+    """Rendered minus measured sinogram at n evenly spaced views, over the data's max: [n, n_bins]."""
+    pick = evenly(stage.times, n)
+    sdf, _ = stage.grid_sdf(stage.times[pick])
+    return (stage.render(sdf, pick, stage.band()) - stage.values[pick]) / stage.values.abs().max().clamp_min(1e-12)
+
+
 class ImageLog(Callback):
-    """Every ``every`` steps (and at the end), frames over time and the sinogram residual to TensorBoard."""
+    """Every ``every`` steps (and at the end), frames over time and (SinogramFit) the sinogram
+    residual to TensorBoard, rendered from the stage's field; the stages only optimise."""
 
     def __init__(self, stage: str, every: int, n_frames: int = 8, n_views: int = 90) -> None:
         self.stage, self.every, self.n_frames, self.n_views = stage, every, n_frames, n_views
@@ -315,14 +323,15 @@ class ImageLog(Callback):
         if trainer.global_step % self.every == 0 or trainer.global_step >= trainer.max_steps:
             self.log_images(trainer, pl_module)
 
-    def log_images(self, trainer, pl_module) -> None:
+    def log_images(self, trainer, pl_module: FieldStage) -> None:
         writer = trainer.logger.experiment
-        rows = pl_module.preview(self.n_frames)  # [R, n, H, W]: one row per image kind
+        fitting = isinstance(pl_module, SinogramFit)
+        rows = (fit_preview if fitting else init_preview)(pl_module, self.n_frames)  # [R, n, H, W]
         strip = torch.cat([torch.cat(list(row), dim=1) for row in rows], dim=0)
         top = float(strip.max().clamp_min(1e-6))
         writer.add_image(f"{self.stage}/frames", (strip / top).clamp(0, 1)[None], trainer.global_step)
-        if hasattr(pl_module, "residual"):
-            res = pl_module.residual(self.n_views)
+        if fitting:
+            res = fit_residual(pl_module, self.n_views)
             writer.add_image(f"{self.stage}/sinogram_residual", (0.5 + 0.5 * res).clamp(0, 1)[None],
                              trainer.global_step)
 
