@@ -40,12 +40,14 @@ class SimulateConf:
 
 @dataclass
 class FileConf:
-    """A sinogram file in the documented ``.npz`` format; ``n_objects``: K, the objects to fit.
+    """A sinogram file in the documented ``.npz`` format, or a TIFF stack whose other keys are in the
+    ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects to fit.
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
-    has no truth (null: the detector's width, n_bins x bin_spacing); with a truth, its grid."""
+    has no truth (null: the diameter every view covers); with a truth, its grid."""
 
     name: str = "file"
     path: str = MISSING
+    sidecar: Optional[str] = None
     n_objects: int = 1
     extent: Optional[float] = None
 
