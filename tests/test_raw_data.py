@@ -125,6 +125,7 @@ def test_a_tiff_stack_runs_through_the_pipeline(tiny_cfg, run_dir, tmp_path):
     (False, dict(i0=np.float64(3.0)), r"key 'i0': expected absent with 'counts'"),
     (False, dict(flat=np.float64(np.nan)), r"key 'flat': expected finite values"),
     (False, dict(counts=None), r"key 'flat': expected only with 'counts'"),
+    (False, dict(counts=np.full((N_VIEWS, GEOMETRY.n_bins), I0)), r"key 'counts': expected some non-zero line"),
 ])
 def test_bad_raw_input_names_the_key_in_one_line(tmp_path, with_dark, changes, message):
     sino = line_integrals()

@@ -148,9 +148,10 @@ def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
     if unknown:
         raise _fail(path, unknown[0], "one of " + ", ".join(DATA_KEYS + REQUIRED + OPTIONAL), "an unknown key")
     values, i0 = _values(data, path)
+    data_key = "counts" if "counts" in data else "sinogram"
     if values.shape[0] < 2 or values.shape[1] < 2:
-        raise _fail(path, "counts" if "counts" in data else "sinogram", "shape [n_views >= 2, n_bins >= 2]", f"shape {values.shape}")
-    _check_values(values, path)
+        raise _fail(path, data_key, "shape [n_views >= 2, n_bins >= 2]", f"shape {values.shape}")
+    _check_values(values, path, data_key)
     n_views = values.shape[0]
     angles = _angles(data, path, n_views)
     times = _array(data, path, "times", 1, n_views).astype(np.float64)
@@ -238,18 +239,19 @@ def _text(data: dict, path: str, key: str) -> str:
     return str(raw.reshape(-1)[0]) if raw.size == 1 else repr(raw.tolist())
 
 
-def _check_values(values: np.ndarray, path: str) -> None:
-    """Line integrals of attenuation: not all zero, not mostly negative, not absurdly large."""
+def _check_values(values: np.ndarray, path: str, key: str) -> None:
+    """Line integrals of attenuation (from the file's ``key``): not all zero, not mostly negative, not
+    absurdly large."""
     if not np.any(values):
-        raise _fail(path, "sinogram", "some non-zero line integrals", "all zeros (no object to reconstruct)")
+        raise _fail(path, key, "some non-zero line integrals", "all zeros (no object to reconstruct)")
     positive, negative = float(values[values > 0].sum()), float(-values[values < 0].sum())
     if negative > positive:
-        raise _fail(path, "sinogram", "line integrals >= 0 (attenuation; noise may dip below 0)",
+        raise _fail(path, key, "line integrals >= 0 (attenuation; noise may dip below 0)",
                     f"mostly negative values (negatives sum to {negative:.3g}, positives to {positive:.3g}): "
                     "a negated sinogram, or counts not turned into -log(I/I0)?")
     largest = float(np.abs(values).max())
     if largest > LARGEST:
-        raise _fail(path, "sinogram", f"line integrals below {LARGEST:g} in magnitude",
+        raise _fail(path, key, f"line integrals below {LARGEST:g} in magnitude",
                     f"values up to {largest:.3g} (a scaling error?)")
 
 
