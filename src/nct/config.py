@@ -19,8 +19,8 @@ from omegaconf.errors import OmegaConfBaseException
 
 from nct.capacity import CapacityConf
 from nct.errors import InputError, require
-from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
 from nct.geometry import FanGeometry
+from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
 from nct.scanner import ImageGrid, Scanner
 from nct.method_conf import (LOGGERS, FBPConf, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
                               RenderConf, TrainerConf)

@@ -187,13 +187,13 @@ class FanGeometry(Geometry):
 
     @classmethod
     def covering(cls, radius: float, n_bins: int, source_distance: float, detector_distance: float,
-                 detector_shape: str = "flat", detector_offset: float = 0.0) -> "FanGeometry":
-        """The geometry whose ``n_bins`` bins (before any offset) just span the fan of rays through the
-        disc of ``radius`` about the axis (``ValueError`` naming the key of a bad value)."""
+                 detector_shape: str = "flat") -> "FanGeometry":
+        """The centred detector whose ``n_bins`` bins just span the fan of rays through the disc of
+        ``radius`` about the axis (``ValueError`` naming the key of a bad value)."""
         _require(0 < radius < source_distance, "source_distance must exceed the radius to cover", source_distance)
         probe = cls(1, radius, source_distance, detector_distance, detector_shape)
         width = 2 * float(probe.detector_coordinate(math.asin(radius / source_distance)))
-        return cls(n_bins, width / n_bins, source_distance, detector_distance, detector_shape, detector_offset)
+        return cls(n_bins, width / n_bins, source_distance, detector_distance, detector_shape)
 
     @property
     def source_to_detector(self) -> float:
