@@ -53,6 +53,8 @@ def nct(tmp_path, monkeypatch, capsys):
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
                           "composed, heart, letters, static"),
     (["optim.lr=0"], "optim.lr must be > 0, got 0.0"),
+    (["scanner=fan", "scanner.detector_distance=-1"], "scanner.detector_distance must be > 0, got -1.0"),
+    (["scanner=fan", "scanner.detector_shape=round"], "scanner.detector_shape must be 'flat' or 'curved', got 'round'"),
 ])
 def test_config_errors_are_one_line_with_exit_code_2(nct, args, message):
     code, _, err = nct(*QUICK, *args)

@@ -8,6 +8,7 @@ key. Range checks live in each dataclass's ``__post_init__`` and run in `validat
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any, Optional
@@ -17,7 +18,8 @@ from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from nct.capacity import CapacityConf
-from nct.errors import InputError
+from nct.errors import InputError, require
+from nct.geometry import FanGeometry
 from nct.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
 from nct.scanner import ImageGrid, Scanner
 from nct.method_conf import (LOGGERS, FBPConf, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
@@ -38,12 +40,14 @@ class SimulateConf:
 
 @dataclass
 class FileConf:
-    """A sinogram file in the documented ``.npz`` format; ``n_objects``: K, the objects to fit.
+    """A sinogram file in the documented ``.npz`` format, or a TIFF stack whose other keys are in the
+    ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects to fit.
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
-    has no truth (null: the detector's width, n_bins x bin_spacing); with a truth, its grid."""
+    has no truth (null: the diameter every view covers); with a truth, its grid."""
 
     name: str = "file"
     path: str = MISSING
+    sidecar: Optional[str] = None
     n_objects: int = 1
     extent: Optional[float] = None
 
@@ -56,7 +60,8 @@ class FileConf:
 
 @dataclass
 class ScannerConf:
-    """Parallel-beam acquisition; ``bin_spacing`` null means image.extent / n_bins."""
+    """Parallel-beam acquisition; ``bin_spacing`` null means image.extent / n_bins; ``detector_offset``
+    shifts the detector along itself (``geometry.py``)."""
 
     name: str = "parallel"
     views_per_rotation: int = 720
@@ -65,15 +70,40 @@ class ScannerConf:
     start_deg: float = 0.0
     n_bins: int = 128
     bin_spacing: Optional[float] = None
-
-    def __post_init__(self) -> None:
-        Scanner(self.views_per_rotation, self.rotations, self.rotation_time, 0.0, self.n_bins,
-                1.0 if self.bin_spacing is None else self.bin_spacing)
+    detector_offset: float = 0.0
 
     def build(self, extent: float) -> Scanner:
+        """The scanner of a field of view ``extent`` a side (``ValueError`` naming the key of a bad value)."""
         spacing = extent / self.n_bins if self.bin_spacing is None else self.bin_spacing
-        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time,
-                       float(self.start_deg) * 3.141592653589793 / 180.0, self.n_bins, spacing)
+        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time, math.radians(self.start_deg),
+                       self.n_bins, spacing, detector_offset=self.detector_offset)
+
+
+@dataclass
+class FanScannerConf(ScannerConf):
+    """Fan-beam acquisition (``geometry.FanGeometry``): the source ``source_distance`` from the axis, the
+    detector (``detector_shape`` flat or curved) ``detector_distance`` beyond it; ``bin_spacing`` null
+    means the n_bins bins just span the fan through the field of view's inscribed disc."""
+
+    name: str = "fan"
+    source_distance: float = 2.0
+    detector_distance: float = 2.0
+    detector_shape: str = "flat"
+
+    def build(self, extent: float) -> Scanner:
+        half_diagonal = extent / math.sqrt(2)
+        require(self.source_distance > half_diagonal, "scanner.source_distance",
+                f"> image.extent / sqrt(2) = {half_diagonal:.4g} (the source outside the image)", self.source_distance)
+        spacing = self.bin_spacing
+        if spacing is None:
+            try:
+                spacing = FanGeometry.covering(extent / 2, self.n_bins, self.source_distance, self.detector_distance,
+                                               self.detector_shape).bin_spacing
+            except ValueError as err:
+                raise ValueError(f"scanner.{err}") from None
+        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time, math.radians(self.start_deg),
+                       self.n_bins, spacing, self.source_distance, self.detector_distance, self.detector_shape,
+                       self.detector_offset)
 
 
 @dataclass
@@ -150,6 +180,7 @@ class NCTConf:
     threads: Optional[int] = None
 
     def __post_init__(self) -> None:
+        self.scanner.build(self.image.extent)
         if self.threads is not None and self.threads < 1:
             raise ValueError(f"threads must be >= 1 (or null for torch's default), got {self.threads}")
         if self.method not in ("nct", "fbp"):
@@ -165,7 +196,7 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "data": {"simulate": SimulateConf, "file": FileConf},
     "phantom": {"circle": CircleConf, "heart": HeartConf, "letters": LettersConf,
                 "static": StaticConf, "composed": ComposedConf},
-    "scanner": {"parallel": ScannerConf},
+    "scanner": {"parallel": ScannerConf, "fan": FanScannerConf},
     "image": {"default": ImageConf},
     "fbp": {"default": FBPConf},
     "model": {"default": ModelConf},

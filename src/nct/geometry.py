@@ -185,6 +185,16 @@ class FanGeometry(Geometry):
                  "detector_offset and n_bins * bin_spacing must keep a curved detector's fan angles within 90 deg",
                  f"{math.degrees(reach):.1f} deg")
 
+    @classmethod
+    def covering(cls, radius: float, n_bins: int, source_distance: float, detector_distance: float,
+                 detector_shape: str = "flat") -> "FanGeometry":
+        """The centred detector whose ``n_bins`` bins just span the fan of rays through the disc of
+        ``radius`` about the axis (``ValueError`` naming the key of a bad value)."""
+        _require(0 < radius < source_distance, "source_distance must exceed the radius to cover", source_distance)
+        probe = cls(1, radius, source_distance, detector_distance, detector_shape)
+        width = 2 * float(probe.detector_coordinate(math.asin(radius / source_distance)))
+        return cls(n_bins, width / n_bins, source_distance, detector_distance, detector_shape)
+
     @property
     def source_to_detector(self) -> float:
         """Distance from the source to the detector along the central ray."""

@@ -46,7 +46,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has
     one, else ``image.size`` pixels over ``data.extent``)."""
     if isinstance(conf.data, FileConf):
-        sino = load_sinogram(conf.data.path)
+        sino = load_sinogram(conf.data.path, conf.data.sidecar)
         if sino.truth is not None:
             grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
             return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
