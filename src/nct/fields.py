@@ -96,7 +96,7 @@ class Field(nn.Module):
 
     def on_lattice(self, size: int) -> Coefficients:
         """``coefficients`` at the pixel centres of a size x size image (rows down, P = size**2)."""
-        return self.coefficients(lattice_points(size).to(self.omega.device))
+        return self.coefficients(lattice_points(size, self.omega.device))
 
     def _split(self, static: Tensor, temporal: Tensor | None) -> Coefficients:
         """Coefficients from static [K, P] and temporal [2MK, P] values."""
@@ -161,7 +161,7 @@ class MultiGrid(nn.Module):
         than ``grid_sample``'s backward on a CPU)."""
         total = 0
         for g in self.grids:
-            rows, cols = (m.to(g.device) for m in lattice_interpolation(size, g.shape[-1]))
+            rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
             total = total + rows @ g[0] @ cols.T
         return total.reshape(total.shape[0], -1)
 
@@ -184,12 +184,12 @@ def pixel_centres(size: int) -> Tensor:
 
 
 @lru_cache(maxsize=8)
-def lattice_points(size: int) -> Tensor:
+def lattice_points(size: int, device: torch.device | None = None) -> Tensor:
     """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2].
-    Cached (evaluated every step): do not modify the result."""
+    Cached per device (evaluated every step, no copy): do not modify the result."""
     u = pixel_centres(size)
     y, x = torch.meshgrid(-u, u, indexing="ij")
-    return torch.stack([x.ravel(), y.ravel()], dim=1)
+    return torch.stack([x.ravel(), y.ravel()], dim=1).to(device)
 
 
 def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
@@ -211,26 +211,27 @@ def _linear_weights(pos: Tensor, cells: int) -> Tensor:
 
 
 @lru_cache(maxsize=8)
-def upsampling_matrix(size: int, lattice: int) -> Tensor:
+def upsampling_matrix(size: int, lattice: int, device: torch.device | None = None,
+                      dtype: torch.dtype = torch.float32) -> Tensor:
     """Bilinear resampling, one axis, from the pixel centres of a ``lattice``-pixel image to those
     of a ``size``-pixel image of the same extent: [size, lattice] (F.interpolate's
     align_corners=False, as a matrix: its backward is a product too, far cheaper on a CPU).
-    Cached: do not modify."""
-    return _linear_weights((pixel_centres(size) + 1) / 2 * lattice - 0.5, lattice)
+    Cached per device and dtype: do not modify."""
+    return _linear_weights((pixel_centres(size) + 1) / 2 * lattice - 0.5, lattice).to(device, dtype)
 
 
 def upsample(images: Tensor, size: int) -> Tensor:
     """Bilinear upsampling of square images [..., n, n] to [..., size, size] (see upsampling_matrix)."""
-    m = upsampling_matrix(size, images.shape[-1]).to(images)
+    m = upsampling_matrix(size, images.shape[-1], images.device, images.dtype)
     return m @ images @ m.T
 
 
 @lru_cache(maxsize=32)
-def lattice_interpolation(size: int, cells: int) -> tuple[Tensor, Tensor]:
+def lattice_interpolation(size: int, cells: int, device: torch.device | None = None) -> tuple[Tensor, Tensor]:
     """Bilinear lookup of a cells x cells grid at the pixel centres of a size x size image, as
-    matrices for image rows (y runs down) and columns: two [size, cells]. Cached: do not modify."""
+    matrices for image rows (y runs down) and columns: two [size, cells]. Cached per device: do not modify."""
     u = pixel_centres(size)
-    return interpolation_matrix(-u, cells), interpolation_matrix(u, cells)
+    return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
 
 
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:

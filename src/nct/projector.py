@@ -63,6 +63,7 @@ class Projector(nn.Module):
         n_t = math.ceil(2 * reach / self.step) + 1
         t = (torch.arange(n_t, dtype=torch.float64) - (n_t - 1) / 2) * self.step
         self.register_buffer("t_norm", t / half)
+        self.register_buffer("down", torch.tensor([1.0, -1.0], dtype=torch.float64))  # y up -> rows down
 
     def forward(self, images: Tensor, angles: Tensor) -> Tensor:
         """Project image b at angle b ([B,H,W], [B]) or one image at every angle ([H,W], [B]): [B, n_bins]."""
@@ -75,7 +76,7 @@ class Projector(nn.Module):
         point, direction = self.unit_geometry.rays(angles.to(images), self.u_norm.to(images))
         # Sample p + t v along every ray; grid_sample's y runs down the rows. One fused addcmul:
         # building this [B, rays, samples, 2] grid in steps costs twice as much.
-        down = torch.tensor([1.0, -1.0]).to(images)
+        down = self.down.to(images)
         grid = torch.addcmul((point * down)[:, :, None, :], self.t_norm.to(images)[None, None, :, None],
                              (direction * down)[:, :, None, :])
         n_views, n_rays, n_t = grid.shape[:3]
@@ -103,8 +104,11 @@ def _check_sampling(size: int, extent: float, ray_step: float | None, bin_sample
 
 
 @lru_cache(maxsize=16)
-def _projector(geometry: Geometry, size: int, extent: float, ray_step: float | None, bin_samples: int) -> Projector:
-    return Projector(geometry, size, extent, ray_step, bin_samples)
+def _projector(geometry: Geometry, size: int, extent: float, ray_step: float | None, bin_samples: int,
+               device: torch.device, dtype: torch.dtype) -> Projector:
+    """One projector per setting, its ray buffers already on the images' device and in their
+    dtype: no host-device copy in a fitting step."""
+    return Projector(geometry, size, extent, ray_step, bin_samples).to(device=device, dtype=dtype)
 
 
 def project(
@@ -122,7 +126,8 @@ def project(
     cover ``extent`` a side. ``ray_step`` / ``bin_samples``: see ``Projector``.
     """
     size = int(images.shape[-1])
-    return _projector(geometry, size, float(extent), ray_step, int(bin_samples))(images, angles)
+    return _projector(geometry, size, float(extent), ray_step, int(bin_samples), images.device,
+                      images.dtype)(images, angles)
 
 
 def forward_project(

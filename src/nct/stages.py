@@ -267,19 +267,25 @@ class MinLossStop(Callback):
 
 
 class DivergenceCheck(Callback):
-    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss."""
+    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss.
+    Checked on the Trainer's logging steps and the last: reading a loss makes the host wait for
+    the device, so not every step."""
 
     def __init__(self, stage: str, factor: float) -> None:
         self.stage, self.factor, self.first = stage, factor, None
 
     def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
-        loss = float(outputs["loss"] if isinstance(outputs, dict) else outputs)
+        loss = (outputs["loss"] if isinstance(outputs, dict) else outputs).detach()
         self.first = loss if self.first is None else self.first
-        if not math.isfinite(loss) or loss > self.factor * self.first:
+        step = batch_idx + 1
+        if step % trainer.log_every_n_steps and step < trainer.max_steps:
+            return
+        loss, first = float(loss), float(self.first)
+        if not math.isfinite(loss) or loss > self.factor * first:
             lr = trainer.optimizers[0].param_groups[0]["lr"]
             raise DivergenceError(
                 f"stage '{self.stage}' diverged at step {trainer.global_step}: loss {loss:.4g} (first step "
-                f"{self.first:.4g}, limit {self.factor:g}x) at learning rate {lr:.3g}; "
+                f"{first:.4g}, limit {self.factor:g}x) at learning rate {lr:.3g}; "
                 "lower optim.lr or raise optim.warmup_steps"
             )
 
