@@ -1,4 +1,4 @@
-"""Acceptance of the NeuralCT method (issue 3): the default ``nct`` against FBP on four scenes.
+"""Acceptance of the NeuralCT method (issues 3 and 9): the default ``nct`` against FBP on six scenes.
 
 For each scene and seed, FBP and NeuralCT (the default configuration, nothing tuned per scene)
 run in their own ``nct`` process (nct.benchmarking); the circle is also reconstructed by the
@@ -9,6 +9,7 @@ over seeds (a failed run counts as Dice 0 and fails its criterion):
 - heart_cine: NeuralCT Dice >= 0.96 and every frame of every seed with MSE < 0.005;
 - letters: NeuralCT Dice >= 0.86 and above FBP;
 - static: NeuralCT Dice no lower than FBP's minus 0.01;
+- fast motion (issue 9 item 3): the circle at 150 deg/rotation Dice >= 0.90, at 200 >= 0.85;
 - the default run (circle) within 600 s (run time inside the process, machine state as measured).
 
 Writes runs.csv, acceptance.csv (one row per criterion) and acceptance.md.
@@ -35,7 +36,10 @@ SCENES: dict[str, tuple[str, ...]] = {
     "heart_cine": ("experiment=heart_cine",),
     "letters": ("experiment=letters",),
     "static": ("experiment=static",),
+    "circle_150": ("experiment=circle", "phantom.displacement_deg=150"),
+    "circle_200": ("experiment=circle", "phantom.displacement_deg=200"),
 }
+FAST_BARS = {"circle_150": 0.90, "circle_200": 0.85}  # issue 9 item 3: fast motion, full size
 METHODS: dict[str, tuple[str, tuple[str, ...]]] = {  # label -> (method, extra overrides)
     "fbp": ("fbp", ()),
     "fbp360": ("fbp", ("fbp.window_deg=360",)),
@@ -113,6 +117,11 @@ def criteria(by: dict[tuple[str, str], Scores]) -> list[dict]:
         n, f = by["static", "nct"], by["static", "fbp"]
         add("static", "NCT Dice >= FBP Dice - 0.01", f"{n.dice:.4f} (min {n.dice_min:.4f}) vs FBP {f.dice:.4f}",
             n.dice >= f.dice - 0.01)
+    for scene, bar in FAST_BARS.items():
+        if (scene, "nct") in by:
+            n, f = by[scene, "nct"], by[scene, "fbp"]
+            add(scene, f"NCT median Dice >= {bar:.2f}", f"{n.dice:.3f} (min {n.dice_min:.3f}; FBP {f.dice:.3f})",
+                n.dice >= bar)
     return rows
 
 
@@ -126,7 +135,7 @@ def write_outputs(out: Path, records: Sequence[Record], command: str, elapsed_s:
     table = [[scene, label, s.dice, s.dice_min, s.mse, s.worst_frame_mse, s.run_time_s, f"{s.failed}/{s.runs}"]
              for (scene, label), s in by.items()]
     text = "\n".join([
-        "# Acceptance (issue 3)", "",
+        "# Acceptance (issues 3 and 9)", "",
         f"Command: `{command}` ({elapsed_s / 60:.1f} min, seeds {' '.join(map(str, seeds))}).", "",
         markdown_table(["scene", "criterion", "measured", "passed"],
                        [[r["scene"], r["criterion"], r["measured"], "yes" if r["passed"] else "**no**"] for r in rows]),

@@ -232,12 +232,17 @@ def test_acceptance_criteria_on_hand_made_scores():
           ("letters", "nct"): S(0.87, 0.80, 0.02, 0.05, 250.0, 0, 5),
           ("letters", "fbp"): S(0.88, 0.88, 0.04, 0.05, 1.0, 0, 5),
           ("static", "nct"): S(0.986, 0.95, 0.0001, 0.0001, 250.0, 1, 5),
-          ("static", "fbp"): S(0.997, 0.997, 0.0003, 0.0003, 1.0, 0, 5)}
+          ("static", "fbp"): S(0.997, 0.997, 0.0003, 0.0003, 1.0, 0, 5),
+          ("circle_150", "nct"): S(0.905, 0.88, 0.005, 0.02, 250.0, 0, 5),
+          ("circle_150", "fbp"): S(0.75, 0.75, 0.03, 0.05, 1.0, 0, 5),
+          ("circle_200", "nct"): S(0.845, 0.80, 0.01, 0.03, 250.0, 0, 5),
+          ("circle_200", "fbp"): S(0.70, 0.70, 0.04, 0.06, 1.0, 0, 5)}
     rows = accept.criteria(by)
     assert [r["passed"] for r in rows] == [True, True, True,  # circle: Dice, MSE, time
                                            True, False,  # heart_cine: one frame at 0.0051
                                            False,  # letters: above 0.86 but not above FBP
-                                           False]  # static: 0.986 < 0.997 - 0.01
+                                           False,  # static: 0.986 < 0.997 - 0.01
+                                           True, False]  # fast: 0.905 >= 0.90; 0.845 < 0.85
     assert rows[1]["criterion"] == "NCT MSE < FBP MSE" and rows[1]["measured"] == "0.0040 vs 0.0240"
     assert accept.criteria({}) == []
 
@@ -247,7 +252,7 @@ def test_acceptance_plans_fbp_360_for_the_circle_only(tmp_path):
     jobs = accept.plan(tmp_path, [0, 1])
     labels = {(j.labels["scene"], j.labels["label"]) for j in jobs}
     assert ("circle_100", "fbp360") in labels and ("static", "fbp360") not in labels
-    assert len(jobs) == 2 * (4 * 2 + 1)
+    assert len(jobs) == 2 * (6 * 2 + 1)
     assert "fbp.window_deg=360" in jobs[2].overrides + jobs[3].overrides
 
 
