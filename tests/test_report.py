@@ -122,7 +122,8 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     assert "second line" not in text
     assert "- job 7 (phantom.displacement_deg=200 seed=1): **unfinished**" in text
     assert "- job 8 (phantom.displacement_deg=200 seed=2): **missing**" in text
-    assert "Lowest held-out sinogram loss (truth-free choice): job 2" in text
+    # every job has its own data (displacement and seed): no truth-free choice across scenes
+    assert "Truth-free choice: none to make (no two finished jobs share a scene" in text
     assert "![displacement](displacement.png)" in text
     assert f"    nct -m sweep=displacement_quick hydra.sweep.dir={displacement_sweep} resume=true" in text
     assert (displacement_sweep / "report" / "report.csv").is_file()
@@ -146,6 +147,21 @@ def test_tv_grid_heat_map(tmp_path: Path):
     assert "## NCT median Dice on the TV grid (one job per setting; rows: TV space" in report.summary.read_text()
     assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
     assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
+    # one scene, three finished settings: held-out loss 1 - Dice picks job 2, the best Dice too
+    assert ("- 3 jobs of one scene: the lowest held-out loss picks job 2 (loss.tv_space=1 loss.tv_time=0), "
+            "NCT median Dice 0.7; the best Dice is job 2's 0.7: 0 lost.") in report.summary.read_text()
+
+
+def test_truth_free_choice_is_per_scene_and_says_what_it_loses(tmp_path: Path):
+    """Two scenes (seeds) of two F_max each; in seed 1 the held-out loss prefers the worse job."""
+    sweep = make_sweep(tmp_path / "f", {"model.f_max": "0.3,3", "seed": "0,1"}, [])
+    cases = [(0.3, 0, 0.95, 0.04), (3, 0, 0.83, 0.05), (0.3, 1, 0.94, 0.05), (3, 1, 0.82, 0.04)]
+    for num, (f, seed, dice, held) in enumerate(cases):
+        make_job(sweep, num, [f"model.f_max={f}", f"seed={seed}"], {"status": "ok", "error": None, "wall_time_s": 1.0},
+                 ok_metrics(dice, 0.8, 1.0) | {"heldout_loss": held})
+    text = write_report(sweep).summary.read_text()
+    assert "picks job 0 (model.f_max=0.3 seed=0), NCT median Dice 0.95; the best Dice is job 0's 0.95: 0 lost." in text
+    assert "picks job 3 (model.f_max=3 seed=1), NCT median Dice 0.82; the best Dice is job 2's 0.94: 0.12 lost." in text
 
 
 def test_optuna_sweep_counts_missing_trials_from_its_jobs(tmp_path: Path):

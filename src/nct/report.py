@@ -451,6 +451,40 @@ def _first_line(error: str | None) -> str:
     return lines[0] if lines else "no error recorded"
 
 
+SCENE_KEYS = ("data", "phantom", "scanner", "image", "experiment", "seed")  # what fixes the measured data
+
+
+def scenes(jobs: Sequence[Job]) -> dict[tuple[tuple[str, str], ...], list[Job]]:
+    """Finished jobs with a held-out loss, by scene: the same data (``SCENE_KEYS`` overrides), so
+    that a truth-free score may choose among them."""
+    by: dict[tuple[tuple[str, str], ...], list[Job]] = {}
+    for job in finished(jobs):
+        if math.isfinite(job.metric("heldout_loss")):
+            key = tuple(sorted((k, v) for k, v in job.overrides.items() if k.split(".")[0] in SCENE_KEYS))
+            by.setdefault(key, []).append(job)
+    return by
+
+
+def truth_free_lines(jobs: Sequence[Job], varying: Sequence[str]) -> list[str]:
+    """Per scene with two or more jobs: the job the lowest held-out loss picks, and the Dice it
+    gives up against the job the truth would pick (the score is only comparable on the same data)."""
+    lines = []
+    for group in scenes(jobs).values():
+        if len(group) < 2:
+            continue
+        pick = min(group, key=lambda j: j.metric("heldout_loss"))
+        top = max(group, key=lambda j: j.metric("nct.median_dice"))
+        lost = top.metric("nct.median_dice") - pick.metric("nct.median_dice")
+        lines.append(f"- {len(group)} jobs of one scene: the lowest held-out loss picks job {pick.num} "
+                     f"({_label(pick, varying) or 'no varying override'}), NCT median Dice "
+                     f"{fmt(pick.metric('nct.median_dice'))}; the best Dice is job {top.num}'s "
+                     f"{fmt(top.metric('nct.median_dice'))}: {fmt(lost)} lost.")
+    if not lines:
+        return ["Truth-free choice: none to make (no two finished jobs share a scene: the held-out loss "
+                "compares settings on the same data only).", ""]
+    return ["Truth-free choice (lowest held-out sinogram loss, among jobs of the same scene):", "", *lines, ""]
+
+
 def _varying(jobs: Sequence[Job]) -> list[str]:
     keys = _union(j.overrides for j in jobs)
     return [k for k in keys if len({j.overrides.get(k) for j in jobs}) > 1]
@@ -473,13 +507,8 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         counts[job.status] = counts.get(job.status, 0) + 1
     lines = [f"# Sweep report: `{sweep_dir.resolve()}`", "",
              f"{len(jobs)} jobs: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) + ".", ""]
-    best = [j for j in finished(jobs) if math.isfinite(j.metric("heldout_loss"))]
     varying = _varying(jobs)
-    if best:
-        pick = min(best, key=lambda j: j.metric("heldout_loss"))
-        lines += [f"Lowest held-out sinogram loss (truth-free choice): job {pick.num} "
-                  f"({_label(pick, varying) or 'no varying override'}), held-out loss "
-                  f"{fmt(pick.metric('heldout_loss'), 4)}, NCT median Dice {fmt(pick.metric('nct.median_dice'))}.", ""]
+    lines += truth_free_lines(jobs, varying)
     for key, title in ((DISPLACEMENT, "By displacement"), (F_MAX, "By F_max")):
         if len(distinct(jobs, key)) > 1:
             lines += _by_setting_section(jobs, key, title)
