@@ -71,3 +71,10 @@ def test_bad_input_is_named():
         masks_to_sdf(np.zeros((4, 4), bool), 0.0)
     with pytest.raises(ValueError, match="mask_tv"):
         masks_to_sdf(np.zeros((4, 4), bool), 0.1, mask_tv=-1)
+
+
+def test_threads_give_the_same_sdf():
+    """Smoothing frames on several threads changes nothing but the time."""
+    rng = np.random.default_rng(3)
+    masks = rng.random((5, 24, 24)) > 0.6
+    np.testing.assert_array_equal(masks_to_sdf(masks, 0.1, workers=3), masks_to_sdf(masks, 0.1))

@@ -172,7 +172,7 @@ def reconstruct(
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
     seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
-    targets = masks_to_sdf(seg.masks, grid.pixel_size)
+    targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
@@ -197,7 +197,8 @@ def reconstruct(
     if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
-        targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size)
+        targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size,
+                               workers=torch.get_num_threads())
         fit = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, stages)
