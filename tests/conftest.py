@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import torch
 from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig
@@ -32,6 +33,15 @@ def compose_config(overrides: list[str], with_hydra: bool = False) -> DictConfig
             return compose(config_name="config", overrides=overrides, return_hydra_config=with_hydra)
     finally:
         GlobalHydra.instance().clear()
+
+
+DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
+
+
+@pytest.fixture(params=DEVICES)
+def device(request) -> torch.device:
+    """Each device this machine has: a test taking it runs on the CPU and, where there is one, on a CUDA GPU."""
+    return torch.device(request.param)
 
 
 @pytest.fixture

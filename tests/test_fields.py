@@ -98,7 +98,7 @@ def randomised(f):
 
 
 @pytest.mark.parametrize("family", ["siren", "grid"])
-def test_lattice_evaluation_matches_points(family):
+def test_lattice_evaluation_matches_points(family, device):
     """``on_lattice`` (separable matrix products for grids) gives the point-wise values at pixel centres."""
     from nct.fields import lattice_points
     from nct.scanner import ImageGrid
@@ -106,8 +106,9 @@ def test_lattice_evaluation_matches_points(family):
     x, y = ImageGrid(24, 3.0).xy()
     centres = torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / 1.5).float()
     torch.testing.assert_close(lattice_points(24), centres, atol=1e-6, rtol=0)
-    f = randomised(field(n_terms=3, **GRID)) if family == "grid" else field(n_terms=3)
-    a, b = f.coefficients(centres), f.on_lattice(24)
+    f = (randomised(field(n_terms=3, **GRID)) if family == "grid" else field(n_terms=3)).to(device)
+    a, b = f.coefficients(centres.to(device)), f.on_lattice(24)
+    assert b.static.device.type == device.type
     torch.testing.assert_close(b.static, a.static, atol=1e-5, rtol=1e-5)
     torch.testing.assert_close(b.temporal, a.temporal, atol=1e-5, rtol=1e-5)
 
@@ -135,8 +136,8 @@ def test_grid_family_sizes_and_validation():
 
 
 @pytest.mark.parametrize("n, size", [(16, 32), (5, 13), (64, 128)])
-def test_upsample_is_bilinear_between_pixel_centres(n, size):
+def test_upsample_is_bilinear_between_pixel_centres(n, size, device):
     """upsample equals torch's bilinear interpolation (align_corners=False) of the same images."""
-    images = torch.randn(3, 2, n, n, dtype=torch.float64)
+    images = torch.randn(3, 2, n, n, dtype=torch.float64).to(device)
     expected = torch.nn.functional.interpolate(images, size=(size, size), mode="bilinear", align_corners=False)
     torch.testing.assert_close(upsample(images, size), expected, atol=2e-6, rtol=0)

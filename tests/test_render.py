@@ -51,9 +51,11 @@ def test_intensity_sums_objects():
 
 
 @pytest.mark.parametrize("k_samp", [1, 2])
-def test_projection_matches_exact_disc_integrals(k_samp):
-    sdf = disc_sdf()[None, None].expand(len(ANGLES), 1, -1, -1)
-    sino = project_frames(sdf, torch.ones(1), ANGLES, GEOMETRY, GRID.extent, GRID.pixel_size, 50.0, k_samp)
+def test_projection_matches_exact_disc_integrals(k_samp, device):
+    sdf = disc_sdf()[None, None].expand(len(ANGLES), 1, -1, -1).to(device)
+    sino = project_frames(sdf, torch.ones(1, device=device), ANGLES.to(device), GEOMETRY, GRID.extent,
+                          GRID.pixel_size, 50.0, k_samp).cpu()
+    assert sino.dtype == torch.float32
     exact = disc_projection()
     error = np.abs(sino.numpy() - exact).mean() / exact.mean()
     assert error < 0.01
