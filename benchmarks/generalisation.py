@@ -179,8 +179,9 @@ class Acceptance:
                 f"(b) NCT >= FBP - {MARGIN} Dice on every scene: {verdict(not self.below_fbp)}, "
                 f"{len(self.below_fbp)} below" + (f": {below}" if below else ""),
                 f"(c) NCT >= {TARGET_DICE} on >= {TARGET_SHARE:.0%} of the moving scenes with radius >= "
-                f"{MIN_RADIUS_PCT:g} %: {verdict(self.share >= TARGET_SHARE)}, {self.target_good}/{self.target_scenes}"
-                f" ({self.share:.0%})"]
+                f"{MIN_RADIUS_PCT:g} %: " + (f"{verdict(self.share >= TARGET_SHARE)}, {self.target_good}/"
+                                             f"{self.target_scenes} ({self.share:.0%})" if self.target_scenes
+                                             else "no such scene")]
 
 
 def acceptance(results: Sequence[Outcome]) -> Acceptance:
