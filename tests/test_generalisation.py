@@ -127,6 +127,14 @@ def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
     assert rows["all", "all"]["nct_dice"] == pytest.approx(0.885) and rows["all", "all"]["nct_failed"] == 1
 
 
+def test_acceptance_without_target_scenes_says_so_rather_than_fail():
+    """A run of static scenes alone (e.g. --only scene006) has no scene for check (c)."""
+    static = next(s for s in S.draw_scenes(0, 12) if not s.moving)
+    checks = G.acceptance([G.Outcome(static, record("nct", "ok", 0.99), record("fbp", "ok", 0.99))])
+    assert checks.target_scenes == 0
+    assert checks.lines()[2].endswith("no such scene") and "PASS" in checks.lines()[1]
+
+
 def test_own_level_of_a_nested_object_adds_its_containers():
     """Issue 9 item 5's threshold: a vessel (1.0) in a body (0.5) in a shell (0.2) is scored at 0.2 + 0.5 + 0.5."""
     scene = next(s for s in S.draw_scenes(0, 60) if s.layout == "nested")

@@ -1,0 +1,51 @@
+"""A moving object in static surroundings (issue 9, item 5), on tiny sizes: a vessel orbiting inside
+a dimmer static body, and a bright disc orbiting beside a dimmer static disc (K = 2). The moving
+object is scored at its own level (its container's level plus half its own), the static scene's
+foreground against FBP's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nct.method import reconstruct
+from nct.method_conf import LossConf
+from nct.metrics import dice
+from nct.phantoms import ComposedConf, build_phantom
+from nct.projector import fbp_frames
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
+from test_init_robust import LONGER, orbit, still
+from tiny_fits import INIT, MODEL, TRAINER
+
+GRID = ImageGrid(40)
+SCENES = {  # objects, the moving object's own level
+    "vessel": ([still(0.0, 0.0, 0.32, 0.26, 0.4), orbit(0.1, 0.12, 100.0, 1.0)], 0.4 + 0.5),
+    "beside": ([orbit(0.12, 0.2, 100.0, 1.0), still(-0.22, -0.2, 0.12, 0.12, 0.45)], 0.5),
+}
+# Measured (median over frames, 200-step fit): at its own level NCT 0.922 / FBP 0.842 (vessel), 0.901 / 0.786
+# (beside); the foreground 0.988 / 0.981 and 0.938 / 0.818 (before the coarse first pass: 0.913 and 0.892 at
+# the own level). The bars sit 0.03-0.04 below NCT's own-level scores.
+# (A vessel of radius 0.05 at 64-128 px stays below 0.85: benchmarks/results/surround.)
+OWN_LEVEL = {"vessel": 0.88, "beside": 0.86}
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_moving_object_in_static_surroundings(name):
+    objects, own = SCENES[name]
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0))
+    result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+                         n_objects=2, optim=LONGER, init=INIT)
+    fbp = fbp_frames(sino, GRID, times)
+    truth = sino.truth.frames
+
+    def score(frames: np.ndarray, level: float) -> float:
+        return float(np.median(dice(frames >= level, truth >= level)))
+
+    own_nct = score(result.frames, own)
+    assert own_nct > OWN_LEVEL[name], own_nct
+    assert own_nct > score(fbp, own) + 0.05, (own_nct, score(fbp, own))
+    assert score(result.frames, sino.truth.level) >= score(fbp, sino.truth.level) - 0.01
