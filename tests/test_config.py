@@ -79,6 +79,8 @@ def test_composition_errors_name_the_key(override, error, words):
         ("fbp.filter=box", "fbp.filter"),
         ("fbp.window_deg=0", "fbp.window_deg"),
         ("data.noise_i0=-1", "data.noise_i0"),
+        ("data=file data.path=x.npz data.i0=0", "data.i0"),
+        ("loss.data_term=l2", "loss.data_term must be one of l1, poisson"),
         ("seed=-1", "seed"),
         ("data=file", "data.path"),
         ("model.n_terms=-1", "model.n_terms"),

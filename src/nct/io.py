@@ -5,7 +5,8 @@ Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians (degr
 optional ``detector_offset`` (default 0), and fan beam when ``source_distance`` is present, with
 ``detector_distance`` (both > 0) and optional ``detector_shape`` ("flat" default, or "curved"):
 the convention of ``geometry.py``; for scoring ``truth`` [n_frames, H, W] with
-``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``).
+``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``); optional
+``i0``, the incident photons per ray behind Poisson-noisy values (``loss.data_term=poisson``).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from nct.sinogram import Sinogram, Truth
 
 REQUIRED = ("sinogram", "angles", "times", "bin_spacing")
 GEOMETRY_KEYS = ("source_distance", "detector_distance", "detector_shape", "detector_offset")
-OPTIONAL = (*GEOMETRY_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit")
+OPTIONAL = (*GEOMETRY_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit", "i0")
 ANGLES_UNITS = ("rad", "deg")
 MAX_ROTATIONS = 16  # angles in radians spanning more turns than this look like degrees
 LARGEST = 1e9  # |line integral| beyond this is no attenuation (a scaling or type error)
@@ -36,6 +37,8 @@ def save_sinogram(path: str | Path, sino: Sinogram) -> None:
     }
     for key, value in sino.geometry.keys().items():
         arrays[key] = np.str_(value) if isinstance(value, str) else np.float64(value)
+    if sino.i0 is not None:
+        arrays["i0"] = np.float64(sino.i0)
     if sino.truth is not None:
         arrays["truth"] = np.asarray(sino.truth.frames, dtype=np.float32)
         arrays["truth_times"] = np.asarray(sino.truth.times, dtype=np.float64)
@@ -110,7 +113,8 @@ def load_sinogram(path: str | Path) -> Sinogram:
             raise _fail(path, "times", "times that advance over the scan", f"every view at the same time {times[0]:g}")
         geometry = _geometry(data, path, values.shape[1])
         truth = _load_truth(data, path)
-    return Sinogram(values, angles, times, truth=truth, **geometry.keys())
+        i0 = _scalar(data, path, "i0") if "i0" in data.files else None
+    return Sinogram(values, angles, times, truth=truth, i0=i0, **geometry.keys())
 
 
 def _geometry(data, path: Path, n_bins: int) -> Geometry:

@@ -40,7 +40,7 @@ class Units:
     def sinogram(self, sino: Sinogram) -> Sinogram:
         """``sino`` in method units (line integrals are intensity x length), without its truth."""
         values = np.asarray(sino.values, dtype=np.float64) / (self.intensity * self.length)
-        return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times,
+        return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times, i0=sino.i0,
                         **sino.geometry.scaled(1 / self.length).keys())
 
     def with_intensity_of(self, frames: np.ndarray) -> "Units":

@@ -30,7 +30,8 @@ class Sinogram:
     values: [n_views, n_bins] float32; angles: [n_views] radians; times: [n_views] seconds,
     non-decreasing; bin_spacing: detector pitch in the image's physical units. Parallel beam
     unless ``source_distance`` is given; the detector fields are the file keys of ``io.py``, and
-    `geometry` is what every consumer asks.
+    `geometry` is what every consumer asks. i0: incident photons per ray behind Poisson-noisy
+    values (the noise model of ``simulate.py``); None: unknown or noiseless.
     """
 
     values: np.ndarray
@@ -42,6 +43,7 @@ class Sinogram:
     detector_distance: float | None = None
     detector_shape: str | None = None
     detector_offset: float = 0.0
+    i0: float | None = None
 
     @property
     def geometry(self) -> ParallelGeometry | FanGeometry:
