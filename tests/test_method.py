@@ -14,6 +14,7 @@ from nct.method import reconstruct, rotations_since_start, split_views
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram, Truth
 from nct.method_conf import LossConf, RenderConf
+from nct.simulate import add_poisson_noise
 from nct.stages import DivergenceCheck
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER, moving_disc
 
@@ -25,8 +26,8 @@ def acquisition():
     return moving_disc(GRID)
 
 
-def run(sino, times, optim=OPTIM, seed=0, **kw):
-    return reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
+def run(sino, times, optim=OPTIM, seed=0, loss=LossConf(), **kw):
+    return reconstruct(sino, GRID, times, MODEL, loss, TRAINER, seed, log_dir=None, logger="none",
                        optim=optim, init=INIT, **kw)
 
 
@@ -106,3 +107,13 @@ def test_bad_arguments(acquisition):
         RenderConf(band_px=2.0, band_start_px=1.0)
     with pytest.raises(ValueError, match="loss.tv_time"):
         LossConf(tv_time=-1.0)
+
+
+def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisition):
+    sino, times = acquisition
+    poisson = LossConf(data_term="poisson")
+    np.testing.assert_array_equal(run(sino, times, loss=poisson).frames, run(sino, times).frames)
+    noisy = replace(sino, values=add_poisson_noise(sino.values, 1e3, 1.0, np.random.default_rng(0)), i0=1e3)
+    l1, weighted = run(noisy, times), run(noisy, times, loss=poisson)
+    assert not np.array_equal(weighted.frames, l1.frames)
+    assert weighted.heldout_loss == pytest.approx(l1.heldout_loss, rel=0.1)
