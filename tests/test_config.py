@@ -36,14 +36,15 @@ def test_method_groups_keep_the_tuned_defaults():
     conf = validate(compose_config([]))
     assert (conf.optim, conf.render, conf.init, conf.heldout) == (OptimConf(), RenderConf(), InitConf(), HeldoutConf())
     o = conf.optim
-    assert (o.init_steps, o.fit_steps, o.refine_init_steps, o.refine_fit_steps) == (300, 1000, 100, 300)
+    assert (o.init_steps, o.fit_steps, o.refine_init_steps, o.refine_fit_steps) == (300, 1000, 50, 150)
+    assert o.coarse_size == 64
     assert (o.lr, o.refine_lr, o.warmup_steps, o.lr_decay, o.lr_decay_every) == (1e-3, 1e-4, 50, 0.65, 100)
     assert (o.batch_views, o.intensity_lr, o.divergence_factor) == (20, 1e-2, 20.0)
     assert o.refine and o.fit_intensities and o.min_loss == 0.0
     r = conf.render
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share) == (60, 3, 0.02)
-    assert conf.heldout.every == 10
+    assert (conf.heldout.every, conf.heldout.check_every) == (10, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
 
 
@@ -79,6 +80,8 @@ def test_composition_errors_name_the_key(override, error, words):
         ("fbp.filter=box", "fbp.filter"),
         ("fbp.window_deg=0", "fbp.window_deg"),
         ("data.noise_i0=-1", "data.noise_i0"),
+        ("data=file data.path=x.npz data.i0=0", "data.i0"),
+        ("loss.data_term=l2", "loss.data_term must be one of l1, poisson"),
         ("seed=-1", "seed"),
         ("data=file", "data.path"),
         ("model.n_terms=-1", "model.n_terms"),

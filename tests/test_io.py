@@ -1,5 +1,7 @@
 """The sinogram file: round trip, and one clear error per kind of bad file."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -33,6 +35,12 @@ def test_round_trip(tmp_path):
     np.testing.assert_array_equal(r.angles, s.angles)
     np.testing.assert_array_equal(r.truth.frames, s.truth.frames)
     assert r.bin_spacing == 0.1 and r.truth.extent == 1.0 and r.truth.level == 0.5
+    assert r.i0 is None
+
+
+def test_i0_round_trip(tmp_path):
+    save_sinogram(tmp_path / "s.npz", replace(make_sino(), i0=2.5e4))
+    assert load_sinogram(tmp_path / "s.npz").i0 == 2.5e4
 
 
 def test_truth_level_defaults_to_half_peak(tmp_path):
@@ -56,6 +64,7 @@ def test_truth_level_defaults_to_half_peak(tmp_path):
         (lambda a: a.update(extra=np.zeros(3)), "'extra'"),
         (lambda a: a.update(truth=np.zeros((2, 4, 4), np.float32)), "'truth_times'"),
         (lambda a: a.update(truth_times=np.zeros(2)), "'truth'"),
+        (lambda a: a.update(i0=np.float64(0.0)), "'i0'"),
         # implausible content (issue 9 item 7)
         (lambda a: a.update(angles=np.rad2deg(a["angles"]) * 2), "'angles'"),  # degrees, one rotation
         (lambda a: a.update(angles=np.zeros(10)), "'angles'"),

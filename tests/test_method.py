@@ -14,6 +14,7 @@ from nct.method import reconstruct, rotations_since_start, split_views
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram, Truth
 from nct.method_conf import HeldoutConf, LossConf, RenderConf
+from nct.simulate import add_poisson_noise
 from nct.stages import DivergenceCheck
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER, moving_disc
 
@@ -25,8 +26,8 @@ def acquisition():
     return moving_disc(GRID)
 
 
-def run(sino, times, optim=OPTIM, seed=0, **kw):
-    return reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
+def run(sino, times, optim=OPTIM, seed=0, loss=LossConf(), **kw):
+    return reconstruct(sino, GRID, times, MODEL, loss, TRAINER, seed, log_dir=None, logger="none",
                        optim=optim, init=INIT, **kw)
 
 
@@ -139,3 +140,13 @@ def test_coarse_lattice_fits_as_well(acquisition):
     coarse = run(sino, times, replace(OPTIM, coarse_size=16))
     assert not np.array_equal(coarse.frames, full.frames)
     assert coarse.heldout_loss < 1.3 * full.heldout_loss
+
+
+def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisition):
+    sino, times = acquisition
+    poisson = LossConf(data_term="poisson")
+    np.testing.assert_array_equal(run(sino, times, loss=poisson).frames, run(sino, times).frames)
+    noisy = replace(sino, values=add_poisson_noise(sino.values, 1e3, 1.0, np.random.default_rng(0)), i0=1e3)
+    l1, weighted = run(noisy, times), run(noisy, times, loss=poisson)
+    assert not np.array_equal(weighted.frames, l1.frames)
+    assert weighted.heldout_loss == pytest.approx(l1.heldout_loss, rel=0.1)

@@ -43,19 +43,24 @@ class FileConf:
     """A sinogram file in the documented ``.npz`` format, or a TIFF stack whose other keys are in the
     ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects to fit.
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
-    has no truth (null: the diameter every view covers); with a truth, its grid."""
+    has no truth (null: the diameter every view covers); with a truth, its grid.
+    ``i0``: incident counts per ray behind the values' Poisson noise, for ``loss.data_term=poisson``
+    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data)."""
 
     name: str = "file"
     path: str = MISSING
     sidecar: Optional[str] = None
     n_objects: int = 1
     extent: Optional[float] = None
+    i0: Optional[float] = None
 
     def __post_init__(self) -> None:
         if self.n_objects < 1:
             raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
         if self.extent is not None and not self.extent > 0:
             raise ValueError(f"data.extent must be > 0 (or null for the detector's width), got {self.extent}")
+        if self.i0 is not None and not (self.i0 > 0 and math.isfinite(self.i0)):
+            raise ValueError(f"data.i0 must be a finite number > 0 (or null: the file's, else estimated), got {self.i0}")
 
 
 @dataclass

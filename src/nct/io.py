@@ -10,7 +10,8 @@ the convention of ``geometry.py``; for scoring ``truth`` [n_frames, H, W] with
 Raw data instead of ``sinogram``: ``counts`` [n_views, n_bins] (>= 0) with ``flat`` and optional
 ``dark`` (default 0), each a scalar, [n_bins] or [n_views, n_bins]; the line integrals are
 −log(clip((counts − dark) / (flat − dark), COUNTS_FLOOR, None)) and the sinogram's ``i0`` the mean of
-flat − dark (a line-integral file may state ``i0`` itself). A TIFF stack (``.tif``/``.tiff``,
+flat − dark (a line-integral file may state ``i0`` itself, with ``attenuation``, the k of
+its values' transmission exp(−k·p), default 1). A TIFF stack (``.tif``/``.tiff``,
 [n_views, n_bins]) holds ``counts`` when its sidecar ``.npz`` (every other key) has ``flat``, else
 ``sinogram``.
 """
@@ -31,7 +32,8 @@ REQUIRED = ("angles", "times", "bin_spacing")  # and the data: ``sinogram``, or 
 DATA_KEYS = ("sinogram", "counts")
 RAW_KEYS = ("flat", "dark")
 GEOMETRY_KEYS = ("source_distance", "detector_distance", "detector_shape", "detector_offset")
-OPTIONAL = (*GEOMETRY_KEYS, *RAW_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit", "i0")
+OPTIONAL = (*GEOMETRY_KEYS, *RAW_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit", "i0",
+            "attenuation")
 TIFF_SUFFIXES = (".tif", ".tiff")
 COUNTS_FLOOR = 1e-6  # normalised transmission below this (a ray that recorded nothing) is clipped to it
 ANGLES_UNITS = ("rad", "deg")
@@ -50,6 +52,7 @@ def save_sinogram(path: str | Path, sino: Sinogram) -> None:
         arrays[key] = np.str_(value) if isinstance(value, str) else np.float64(value)
     if sino.i0 is not None:
         arrays["i0"] = np.float64(sino.i0)
+        arrays["attenuation"] = np.float64(sino.attenuation)
     if sino.truth is not None:
         arrays["truth"] = np.asarray(sino.truth.frames, dtype=np.float32)
         arrays["truth_times"] = np.asarray(sino.truth.times, dtype=np.float64)
@@ -161,7 +164,8 @@ def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
         raise _fail(path, "times", "times that advance over the scan", f"every view at the same time {times[0]:g}")
     geometry = _geometry(data, path, values.shape[1])
     truth = _load_truth(data, path)
-    return Sinogram(values, angles, times, truth=truth, i0=i0, **geometry.keys())
+    attenuation = _scalar(data, path, "attenuation") if "attenuation" in data else 1.0
+    return Sinogram(values, angles, times, truth=truth, i0=i0, attenuation=attenuation, **geometry.keys())
 
 
 def _values(data: dict[str, np.ndarray], path: str) -> tuple[np.ndarray, float | None]:

@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from nct.capacity import CapacityConf, Rung, climb, explain
+from nct.data_term import view_noise
 from nct.fields import Field, ModelConf, build_field
 from nct.normalise import field_of_view
 from nct.projector import fbp_frames
@@ -174,7 +175,8 @@ def reconstruct(
     seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
     targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
-                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry)
+                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
+                  view_noise(sino, loss.data_term))
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
                     heldout.check_every, resume)
 

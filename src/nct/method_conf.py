@@ -17,6 +17,7 @@ from nct.errors import require
 
 FAMILIES = ("siren", "grid")
 FILTERS = ("ramp", "shepp-logan", "cosine", "hamming", "hann")
+DATA_TERMS = ("l1", "poisson")  # data_term.py
 LOGGERS = ("tensorboard", "csv", "none")
 
 
@@ -90,8 +91,10 @@ class LossConf:
     tv_space: weight of mean(|dg/dx| + |dg/dy|) (dimensionless).
     tv_time: weight of mean |dg/dt|, g in field-of-view sides and t in gantry rotations.
     init_eikonal: weight of the Eikonal term in InitFit (Algorithm 3's lambda).
-    The sinogram term is the L1 misfit relative to the data's mean |value|; InitFit's SDF term is
-    the L1 misfit in pixels, inside and outside each object weighted equally (stages.balanced_l1).
+    data_term: the sinogram term, relative to the data's mean |value| (data_term.py): ``l1``, or
+        ``poisson`` (Huber within each ray's Poisson noise std, from data.i0 or estimated).
+    InitFit's SDF term is the L1 misfit in pixels, inside and outside each object weighted
+    equally (stages.balanced_l1).
     """
 
     name: str = "default"
@@ -99,10 +102,12 @@ class LossConf:
     tv_space: float = 0.0
     tv_time: float = 0.0
     init_eikonal: float = 0.1
+    data_term: str = "l1"
 
     def __post_init__(self) -> None:
         for key in ("eikonal", "tv_space", "tv_time", "init_eikonal"):
             require(getattr(self, key) >= 0, f"loss.{key}", ">= 0", getattr(self, key))
+        require(self.data_term in DATA_TERMS, "loss.data_term", f"one of {', '.join(DATA_TERMS)}", self.data_term)
 
 
 @dataclass

@@ -38,10 +38,12 @@ class Units:
         return ImageGrid(grid.size, grid.extent / self.length)
 
     def sinogram(self, sino: Sinogram) -> Sinogram:
-        """``sino`` in method units (line integrals are intensity x length), without its truth; I0 kept."""
-        values = np.asarray(sino.values, dtype=np.float64) / (self.intensity * self.length)
+        """``sino`` in method units (line integrals are intensity x length), without its truth; I0
+        kept, and the attenuation k rescaled so that k·p, the transmission's exponent, is unchanged."""
+        scale = self.intensity * self.length
+        values = np.asarray(sino.values, dtype=np.float64) / scale
         return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times, i0=sino.i0,
-                        **sino.geometry.scaled(1 / self.length).keys())
+                        attenuation=sino.attenuation * scale, **sino.geometry.scaled(1 / self.length).keys())
 
     def with_intensity_of(self, frames: np.ndarray) -> "Units":
         """These units with the intensity unit set from FBP ``frames`` [F, H, W] already in these

@@ -11,7 +11,7 @@ import logging
 import math
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +47,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     one, else ``image.size`` pixels over ``data.extent``)."""
     if isinstance(conf.data, FileConf):
         sino = load_sinogram(conf.data.path, conf.data.sidecar)
+        sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
         if sino.truth is not None:
             grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
             return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)

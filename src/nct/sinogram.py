@@ -30,8 +30,10 @@ class Sinogram:
     values: [n_views, n_bins] float32; angles: [n_views] radians; times: [n_views] seconds,
     non-decreasing; bin_spacing: detector pitch in the image's physical units. Parallel beam
     unless ``source_distance`` is given; the detector fields are the file keys of ``io.py``, and
-    `geometry` is what every consumer asks. i0: the incident intensity per ray (mean flat − dark of
-    raw counts), for a noise-aware data term; None when unknown.
+    `geometry` is what every consumer asks. i0: the incident counts per ray behind the values, for
+    the noise-aware data term (raw counts: mean flat − dark; simulations: ``data.noise_i0``; a
+    file's key ``i0``); None when unknown. attenuation: k such that a value p transmits exp(−k·p)
+    of them (1 for −log of normalised counts; the simulations' own scale, ``simulate.attenuation_scale``).
     """
 
     values: np.ndarray
@@ -44,6 +46,7 @@ class Sinogram:
     detector_shape: str | None = None
     detector_offset: float = 0.0
     i0: float | None = None
+    attenuation: float = 1.0
 
     @property
     def geometry(self) -> ParallelGeometry | FanGeometry:

@@ -25,6 +25,7 @@ from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
+from nct.data_term import misfit
 from nct.errors import DivergenceError, InputError
 from nct.fields import Field, upsample
 from nct.geometry import Geometry
@@ -38,12 +39,14 @@ RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall
 
 @dataclass(frozen=True)
 class Views:
-    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry."""
+    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry;
+    sigma [V, n_bins]: each value's noise std for the data term (None: the L1 term)."""
 
     values: Tensor
     angles: Tensor
     times: Tensor
     geometry: Geometry
+    sigma: Tensor | None = None
 
     @property
     def scale(self) -> float:
@@ -140,15 +143,15 @@ class InitFit(FieldStage):
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         sdf, _ = self.grid_sdf(self.times[batch])
-        misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
+        sdf_misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
         eikonal = eikonal_loss(*spatial_gradient(sdf, self.grid.pixel_size))
-        loss = misfit + self.loss_conf.init_eikonal * eikonal
-        self.log_due({"train/sdf": misfit, "train/eikonal": eikonal, "train/loss": loss})
+        loss = sdf_misfit + self.loss_conf.init_eikonal * eikonal
+        self.log_due({"train/sdf": sdf_misfit, "train/eikonal": eikonal, "train/loss": loss})
         return loss
 
 
 class SinogramFit(FieldStage):
-    """Algorithm 4: render the field at each sampled view's time and angle, L1 to the data,
+    """Algorithm 4: render the field at each sampled view's time and angle, the data term (L1 or Poisson),
     plus eikonal, tv_space and tv_time terms; the occupancy band narrows as steps go."""
 
     def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
@@ -162,6 +165,7 @@ class SinogramFit(FieldStage):
         self.register_buffer("values", views.values, persistent=False)
         self.register_buffer("angles", views.angles, persistent=False)
         self.register_buffer("times", views.times, persistent=False)
+        self.register_buffer("sigma", views.sigma, persistent=False)
 
     @property
     def intensities(self) -> Tensor:
@@ -187,7 +191,8 @@ class SinogramFit(FieldStage):
     def training_step(self, batch: Tensor, batch_idx: int) -> dict[str, Tensor]:
         band = self.band()
         sdf, rate = self.grid_sdf(self.times[batch])
-        sinogram = (self.render(sdf, batch, band) - self.values[batch]).abs().mean() / self.scale
+        sinogram = misfit(self.render(sdf, batch, band), self.values[batch],
+                          None if self.sigma is None else self.sigma[batch], self.scale)
         gx, gy = spatial_gradient(sdf, self.grid.pixel_size)
         terms = {"sinogram": sinogram, "eikonal": eikonal_loss(gx, gy),
                  "tv_space": (gx.abs() + gy.abs()).mean(), "tv_time": rate.abs().mean()}
