@@ -75,6 +75,16 @@ def test_i0_is_kept_by_the_written_file_and_the_change_of_units(tmp_path):
     assert load_sinogram(tmp_path / "written.npz").i0 == pytest.approx(raw.i0, rel=1e-15)
 
 
+def test_attenuation_keeps_the_transmission_through_units_and_files(tmp_path):
+    """−log of normalised counts transmits exp(−p): k = 1; in other units k·p is unchanged."""
+    raw = load_sinogram(raw_file(tmp_path / "raw.npz", line_integrals(), True))
+    assert raw.attenuation == 1.0
+    method = Units(2.0, 3.0).sinogram(raw)
+    np.testing.assert_allclose(method.attenuation * method.values, raw.values, rtol=1e-6)
+    save_sinogram(tmp_path / "written.npz", method)
+    assert load_sinogram(tmp_path / "written.npz").attenuation == pytest.approx(6.0, rel=1e-15)
+
+
 def test_a_ray_that_records_nothing_is_clipped_not_infinite(tmp_path):
     sino = line_integrals()
     counts = I0 * np.exp(-sino.values.astype(np.float64))
