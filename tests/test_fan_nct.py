@@ -35,17 +35,22 @@ def test_rendered_disc_matches_closed_form_chords(geometry, k_samp):
     assert np.abs(sino.numpy() - expected).mean() / expected.mean() < {1: 0.012, 2: 0.007}[k_samp]
 
 
-def test_tiny_fan_beam_fit_of_a_moving_disc_beats_fbp():
-    # Measured (32^2, 60 views, 100 steps): NCT 0.951, FBP 0.896; runs vary by about 0.015.
-    scanner = Scanner(60, 1.0, 0.25, n_bins=40, bin_spacing=0.04, source_distance=2.0, detector_distance=1.0)
-    phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=100.0), scanner.rotation_time)
-    times, grid = scanner.frame_times(6), ImageGrid(32)
+@pytest.mark.parametrize("shape, offset", [("flat", 0.0), ("curved", 0.0), ("flat", 0.132)],
+                         ids=["flat", "curved", "flat-offset"])
+def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_margin(shape, offset):
+    """Issue 11's bar at a small size: the circle experiment (100 deg/rotation) in fan beam, NCT
+    Dice >= 0.93 and >= fan-beam FBP + 0.08. Measured (64^2, 180 views, 300 steps): NCT
+    0.946-0.948, FBP 0.831-0.835; at full size (benchmarks/results/fan) 0.964-0.966 vs 0.823-0.826."""
+    scanner = Scanner(180, 1.0, 0.25, n_bins=64, bin_spacing=2.2 / 64, source_distance=2.0, detector_distance=2.0,
+                      detector_shape=shape, detector_offset=offset)
+    phantom = build_phantom(CircleConf(radius=0.15, orbit_radius=0.2, displacement_deg=100.0), scanner.rotation_time)
+    times, grid = scanner.frame_times(12), ImageGrid(64)
     sino = simulate(phantom, scanner, grid, times, None, np.random.default_rng(0))
-    model = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-    optim = OptimConf(init_steps=40, fit_steps=60, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=30)
+    model = ModelConf(width=32, depth=2, temporal_width=32, temporal_depth=2, n_terms=16)
+    optim = OptimConf(init_steps=100, fit_steps=300, refine=False, batch_views=10, warmup_steps=10, lr_decay_every=30)
     result = reconstruct(sino, grid, times, model, LossConf(), TrainerConf(accelerator="cpu", progress_bar=False), 0,
-                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=12))
+                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24))
     level = sino.truth.level
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))
-    assert nct >= 0.92 and nct >= fbp + 0.02
+    assert nct >= 0.93 and nct >= fbp + 0.08
