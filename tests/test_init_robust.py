@@ -8,13 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nct.method import reconstruct
 from nct.metrics import dice
-from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.method_conf import LossConf
-from tiny_fits import INIT, MODEL, OPTIM, TRAINER
+from nct.phantoms import EllipseConf, Signal
+from nct.scanner import ImageGrid
+from tiny_fits import OPTIM, fit_composed
 
 GRID = ImageGrid(40)
 
@@ -51,12 +48,7 @@ LONGER = replace(OPTIM, fit_steps=200, lr_decay_every=60)
 @pytest.mark.parametrize("name", SCENES)
 def test_every_scene_gets_an_initialisation(name):
     objects, i0 = SCENES[name]
-    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
-    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
-    times = scanner.frame_times(6)
-    sino = simulate(phantom, scanner, GRID, times, i0, np.random.default_rng(0))
-    result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         n_objects=len(objects), optim=OPTIM if "fast" in name else LONGER, init=INIT)
+    sino, times, result = fit_composed(objects, GRID, OPTIM if "fast" in name else LONGER, i0)
     assert np.isfinite(result.frames).all() and result.frames.shape == (6, 40, 40)
     assert result.init["route"] in ("gmm", "otsu") and len(result.init["levels"]) == len(objects)
     assert all(a > 0 for a in result.intensities)

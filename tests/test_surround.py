@@ -8,15 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nct.method import reconstruct
-from nct.method_conf import LossConf
 from nct.metrics import dice
-from nct.phantoms import ComposedConf, build_phantom
 from nct.projector import fbp_frames
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.scanner import ImageGrid
 from test_init_robust import LONGER, orbit, still
-from tiny_fits import INIT, MODEL, TRAINER
+from tiny_fits import fit_composed
 
 GRID = ImageGrid(40)
 SCENES = {  # objects, the moving object's own level
@@ -33,12 +29,7 @@ OWN_LEVEL = {"vessel": 0.88, "beside": 0.86}
 @pytest.mark.parametrize("name", SCENES)
 def test_moving_object_in_static_surroundings(name):
     objects, own = SCENES[name]
-    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
-    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
-    times = scanner.frame_times(6)
-    sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0))
-    result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         n_objects=2, optim=LONGER, init=INIT)
+    sino, times, result = fit_composed(objects, GRID, LONGER)
     fbp = fbp_frames(sino, GRID, times)
     truth = sino.truth.frames
 

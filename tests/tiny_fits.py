@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from nct.fields import ModelConf
-from nct.method_conf import InitConf, OptimConf, TrainerConf
-from nct.phantoms import CircleConf, build_phantom
+from nct.method import reconstruct
+from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.phantoms import CircleConf, ComposedConf, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
 from nct.sinogram import Sinogram
@@ -23,3 +24,15 @@ def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
     phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=60.0), scanner.rotation_time)
     times = scanner.frame_times(6)
     return simulate(phantom, scanner, grid, times, None, np.random.default_rng(0)), times
+
+
+def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None):
+    """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,
+    simulated analytically and reconstructed with K = len(objects): (sinogram, times, NCTResult)."""
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
+    result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+                         n_objects=len(objects), optim=optim, init=INIT)
+    return sino, times, result
