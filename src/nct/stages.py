@@ -85,6 +85,12 @@ def band_at(step: int, steps: int, conf: RenderConf) -> float:
     return conf.band_start_px * (conf.band_px / conf.band_start_px) ** share
 
 
+def logging_step(trainer: L.Trainer, step: int) -> bool:
+    """Whether 0-based ``step`` is one the Trainer's logger writes (every log_every_n_steps-th,
+    counting from 1) or the last: the steps on which a value is worth reading back."""
+    return (step + 1) % trainer.log_every_n_steps == 0 or step + 1 >= trainer.max_steps
+
+
 class FieldStage(L.LightningModule):
     """What both stages share: the field on the grid and Adam with warmup and step decay."""
 
@@ -109,8 +115,7 @@ class FieldStage(L.LightningModule):
     def log_due(self, values: dict[str, Tensor]) -> None:
         """Log ``values`` on the steps the Trainer writes (its count starts at 1) and the last step
         only: Lightning's bookkeeping of logged values costs about as much as a coarse step."""
-        step, trainer = self.global_step + 1, self.trainer
-        if step % trainer.log_every_n_steps == 0 or step >= trainer.max_steps:
+        if logging_step(self.trainer, self.global_step):
             self.log_dict(values)
 
     def param_groups(self) -> list[dict]:
@@ -282,8 +287,7 @@ class DivergenceCheck(Callback):
     def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
         loss = (outputs["loss"] if isinstance(outputs, dict) else outputs).detach()
         self.first = loss if self.first is None else self.first
-        step = batch_idx + 1
-        if step % trainer.log_every_n_steps and step < trainer.max_steps:
+        if not logging_step(trainer, batch_idx):
             return
         loss, first = float(loss), float(self.first)
         if not math.isfinite(loss) or loss > self.factor * first:
