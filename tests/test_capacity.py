@@ -1,12 +1,13 @@
 """Capacity from held-out views: the rule on hand-made numbers, and a static scene ending with a
-static model while a moving one gets temporal terms (small grid-family fits, ~10 s each)."""
+static model while a moving one gets temporal terms (small grid-family fits, ~10 s each); the
+per-object motion measure that makes an object static."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from nct.capacity import CapacityConf, Rung, climb, explain, next_rung_pays
+from nct.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain, next_rung_pays, object_models
 from nct.fields import ModelConf
 from nct.method import reconstruct
 from nct.metrics import frame_metrics
@@ -51,6 +52,7 @@ def test_climb_stops_at_the_first_rung_that_does_not_pay():
     (dict(ladder=[0, 8, 8]), "capacity.ladder must be strictly increasing"),
     (dict(ladder=[-1, 8]), "capacity.ladder must be term counts >= 0"),
     (dict(tolerance=1.5), "capacity.tolerance must be in \\[0, 1\\)"),
+    (dict(static_below_px=-1.0), "capacity.static_below_px must be >= 0"),
 ])
 def test_bad_settings_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):
@@ -85,3 +87,24 @@ def test_moving_scene_gets_temporal_terms():
     assert ladder[1]["heldout_loss"] < 0.5 * ladder[0]["heldout_loss"]  # static cannot explain the motion
     assert set(result.stages) >= {"m0_init", "m0_fit", "m8_init", "m8_fit"}
     assert dice > 0.85
+
+
+def discs(centres_x: list[float], radii: list[float], size: int = 96) -> np.ndarray:
+    """One disc per frame (centre x in pixels from the image centre, radius in pixels): [F, H, W] bool."""
+    y, x = np.mgrid[:size, :size] + 0.5 - size / 2
+    return np.stack([np.hypot(x - cx, y) <= r for cx, r in zip(centres_x, radii)])
+
+
+def test_boundary_motion_is_the_mean_normal_displacement_in_pixels():
+    # A disc shifted by d moves its boundary by d |cos phi|, 2d/pi on average; a disc growing by d by d.
+    still = discs([0.0] * 5, [20.0] * 5)
+    shifted = discs([-3.0, 0.0, 0.0, 0.0, 3.0], [20.0] * 5)
+    growing = discs([0.0] * 5, [20.0, 20.0, 21.0, 22.0, 24.0])
+    empty = np.zeros_like(still)
+    motion = boundary_motion_px(np.stack([still, shifted, growing, empty], axis=1))
+    assert motion[0] == 0.0 and motion[3] == 0.0
+    assert motion[1] == pytest.approx(2 / 5 * 3 * 2 / np.pi, rel=0.06)
+    assert motion[2] == pytest.approx((1 + 1 + 0 + 1 + 3) / 5, rel=0.06)  # against the majority: radius 21
+    assert [o["model"] for o in object_models(motion, 0.25)] == ["static", "temporal", "temporal", "static"]
+    with pytest.raises(ValueError, match="masks must be"):
+        boundary_motion_px(still)

@@ -16,7 +16,7 @@ import lightning as L
 import numpy as np
 import torch
 
-from nct.capacity import CapacityConf, Rung, climb, explain
+from nct.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain, object_models
 from nct.data_term import view_noise
 from nct.fields import Field, ModelConf, build_field
 from nct.normalise import field_of_view
@@ -196,11 +196,18 @@ def reconstruct(
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
     net, fit = fitted[chosen.n_terms]
 
+    masks = binarise(field_frames(fit, prob.init_times))
+    objects = None
+    if chosen.n_terms and capacity.static_below_px > 0:
+        objects = object_models(boundary_motion_px(masks), capacity.static_below_px)
+        static = np.array([o["model"] == "static" for o in objects])
+        net.set_static(torch.from_numpy(static), float(prob.init_times.mean()))
+        masks[:, static] = masks[:, static].mean(axis=0) > 0.5
+
     if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
-        targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), grid.pixel_size,
-                               workers=torch.get_num_threads())
+        targets = masks_to_sdf(masks, grid.pixel_size, workers=torch.get_num_threads())
         fit = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, stages)
@@ -210,6 +217,8 @@ def reconstruct(
     frames = intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
+    if objects is not None:
+        described["objects"] = {"static_below_px": capacity.static_below_px, "per_object": objects}
     if capacity.auto:
         described["choice"] = {
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
