@@ -6,7 +6,8 @@ process (nct.benchmarking). A run that fails, diverges, times out or scores NaN 
 as a failure. The breakdown point is the first setting (easy to hard) with median Dice < 0.85.
 Writes runs.csv, summary.csv, breakdown.csv, stability.png and stability.md.
 
-Run: python benchmarks/stability.py [--out DIR] [--quick] [--axes full|quick] [--seeds 0 1 2 3 4] [--jobs N]
+Run: python benchmarks/stability.py [--out DIR] [--quick] [--axes full|quick] [--axis NAME ...] [--seeds 0 1 2 3 4]
+     [--jobs N]
 """
 
 from __future__ import annotations
@@ -185,6 +186,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                               "default: 0 1 2 3 4 (quick: 0 1)")
     parser.add_argument("--axes", choices=("full", "quick"),
                         help="settings per axis: full (7-8 per axis) or quick (3); default quick with --quick, else full")
+    parser.add_argument("--axis", action="append", choices=("displacement", "noise", "views"),
+                        help="run only this axis (repeatable; default: all three)")
     parser.add_argument("--base-displacement", type=float, default=40.0,
                         help="degrees per rotation of the circle on the noise and views axes (default 40)")
     args = parser.parse_args(argv)
@@ -193,7 +196,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     extra = QUICK_DATA if args.quick else ()
     command = "python benchmarks/stability.py " + " ".join(sys.argv[1:] if argv is None else argv)
     quick_axes = args.quick if args.axes is None else args.axes == "quick"
-    run_benchmark(args.out, axes(quick_axes, args.base_displacement), seeds, nct, args.jobs, args.resume, extra,
+    stress = [a for a in axes(quick_axes, args.base_displacement) if not args.axis or a.name in args.axis]
+    run_benchmark(args.out, stress, seeds, nct, args.jobs, args.resume, extra,
                   command=command.strip(), timeout_s=args.timeout, threads=args.threads)
     print((args.out / "stability.md").read_text())
     print(f"outputs in {args.out}")
