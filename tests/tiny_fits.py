@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nct.capacity import CapacityConf
 from nct.fields import ModelConf
 from nct.method import reconstruct
 from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
@@ -26,7 +27,8 @@ def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
     return simulate(phantom, scanner, grid, times, None, np.random.default_rng(0)), times
 
 
-def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None):
+def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None,
+                 capacity: CapacityConf | None = None):
     """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,
     simulated analytically and reconstructed with K = len(objects): (sinogram, times, NCTResult)."""
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
@@ -34,5 +36,5 @@ def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: flo
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
     result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         n_objects=len(objects), optim=optim, init=INIT)
+                         n_objects=len(objects), optim=optim, init=INIT, capacity=capacity)
     return sino, times, result

@@ -197,10 +197,9 @@ def reconstruct(
     net, fit = fitted[chosen.n_terms]
 
     masks = binarise(field_frames(fit, prob.init_times))
-    objects = None
-    if chosen.n_terms and capacity.static_below_px > 0:
-        objects = object_models(boundary_motion_px(masks), capacity.static_below_px)
-        static = np.array([o["model"] == "static" for o in objects])
+    objects = object_models(boundary_motion_px(masks), capacity.static_below_px if chosen.n_terms else math.inf)
+    static = np.array([o["model"] == "static" for o in objects])
+    if chosen.n_terms and static.any():
         net.set_static(torch.from_numpy(static), float(prob.init_times.mean()))
         masks[:, static] = masks[:, static].mean(axis=0) > 0.5
 
@@ -217,8 +216,7 @@ def reconstruct(
     frames = intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
-    if objects is not None:
-        described["objects"] = {"static_below_px": capacity.static_below_px, "per_object": objects}
+    described["objects"] = {"static_below_px": capacity.static_below_px, "per_object": objects}
     if capacity.auto:
         described["choice"] = {
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
