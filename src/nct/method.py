@@ -20,6 +20,7 @@ from nct.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain,
 from nct.data_term import view_noise
 from nct.fields import Field, ModelConf, build_field
 from nct.normalise import field_of_view
+from nct.levels import sinogram_judge
 from nct.projector import fbp_frames
 from nct.render import intensity
 from nct.scanner import ImageGrid
@@ -172,11 +173,16 @@ def reconstruct(
     fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
-    seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route)
-    targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
+    judge = None
+    if init.levels == "sinogram":
+        fitted = torch.from_numpy(fit_views)
+        judge = sinogram_judge(clock(init_times), views.values[fitted], views.angles[fitted], views.times[fitted],
+                               views.geometry, grid.extent)
+    seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
+    targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
                     heldout.check_every, resume)
 
@@ -224,7 +230,8 @@ def reconstruct(
         }
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf.astype(np.float32), intensities=amplitudes.numpy(),
                      heldout_loss=_heldout(prob, fit), stages=stages, capacity=described,
-                     init={"route": seg.route, "smoothing_px": seg.smoothing_px, "background": seg.background * units.intensity,
+                     init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels,
+                           "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
                            "levels": [float(a) * units.intensity for a in seg.intensities],
                            "length_unit": units.length, "intensity_unit": units.intensity})
 

@@ -203,6 +203,7 @@ class RenderConf:
         require(self.k_samp >= 1, "render.k_samp", ">= 1", self.k_samp)
 
 
+LEVEL_SOURCES = ("sinogram", "fbp")
 INIT_ROUTES = ("auto", "gmm", "otsu")
 
 
@@ -213,16 +214,20 @@ class InitConf:
     frames_per_rotation: FBP frames segmented into the SDF frames InitFit fits. kappa, gmm_share:
     Algorithm 1's buffer classes and share of frames for the Gaussian mixture. route: "auto"
     (Algorithm 1, and multi-level Otsu on the foreground where it cannot separate K levels),
-    "gmm" (Algorithm 1 only) or "otsu" (segment.py).
+    "gmm" (Algorithm 1 only) or "otsu" (segment.py). levels: "sinogram" (every candidate choice
+    of levels is judged by how well its masks explain the fitted views, which also give a(k):
+    levels.py) or "fbp" (Algorithm 1's rule and the FBP levels).
     """
 
     frames_per_rotation: int = 60
     kappa: int = 3
     gmm_share: float = 0.02
     route: str = "auto"
+    levels: str = "sinogram"
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
+        require(self.levels in LEVEL_SOURCES, "init.levels", f"one of {LEVEL_SOURCES}", self.levels)
         require(self.frames_per_rotation >= 1, "init.frames_per_rotation", ">= 1", self.frames_per_rotation)
         require(self.kappa >= 0, "init.kappa", ">= 0", self.kappa)
         require(0 < self.gmm_share <= 1, "init.gmm_share", "in (0, 1]", self.gmm_share)

@@ -17,6 +17,10 @@ multi-level Otsu and takes each class's median as its level; where noise hides e
 the pixel scale, it looks again on frames smoothed at coarser scales (SMOOTHING_PX). Only when
 nothing stands out of the background at any scale does segmentation fail, with `NoObjectError`.
 
+With a judge (levels.py: how well the masks explain the sinogram), the rule above only adds one
+candidate: every choice of K of the mixture's classes above the foreground threshold, and the
+fallback's levels, is judged, and the best explains the views; the judge also gives a(k).
+
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
 An object inside a dimmer one adds to it (`nest`): the container's mask is filled through it.
@@ -24,7 +28,9 @@ An object inside a dimmer one adds to it (`nest`): the container's mask is fille
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import combinations
 
 import numpy as np
 from scipy.ndimage import binary_fill_holes, gaussian_filter
@@ -45,24 +51,33 @@ class Segmentation:
     """masks: [F, K, H, W] bool, one per object; intensities: [K] object minus background level
     (minus its container's, for an object nested in a dimmer one: see `nest`);
     route: "gmm" (Algorithm 1) or "otsu" (the fallback); background: the background level;
-    smoothing_px: the Gaussian scale at which the fallback found the objects (0: none)."""
+    smoothing_px: the Gaussian scale at which the fallback found the objects (0: none);
+    misfit: the judge's relative residual of the chosen levels (None: no judge)."""
 
     masks: np.ndarray
     intensities: np.ndarray
     route: str = "gmm"
     background: float = 0.0
     smoothing_px: float = 0.0
+    misfit: float | None = None
+
+
+Judge = Callable[[np.ndarray], tuple[float, np.ndarray]]
+"""Rates a candidate segmentation: masks [F, K, H, W] (nested) -> (misfit, intensities [K]); lower is better."""
 
 
 def segment(
     frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int = 3, share: float = 0.02,
-    route: str = "auto",
+    route: str = "auto", judge: Judge | None = None,
 ) -> Segmentation:
     """Segment FBP ``frames`` [F, H, W] into ``n_objects`` masks.
 
     ``route``: "gmm" (Algorithm 1 only), "otsu" (the fallback only) or "auto" (Algorithm 1, and
     the fallback where it finds fewer than K levels). The mixture is fitted on ``share`` of the
-    frames (at least one), drawn with ``rng``. Raises `NoObjectError` when nothing stands out.
+    frames (at least one), drawn with ``rng``. ``judge`` (None: Algorithm
+    1's rule decides): every choice of K of the mixture's classes above the foreground threshold,
+    and the fallback's levels, is judged and the lowest misfit wins, with the judge's intensities.
+    Raises `NoObjectError` when nothing stands out.
     """
     if frames.ndim != 3:
         raise ValueError(f"frames must be [F, H, W], got shape {frames.shape}")
@@ -74,22 +89,40 @@ def segment(
         raise ValueError(f"route must be one of {INIT_ROUTES}, got {route!r}")
     if not np.isfinite(frames).all():
         raise NoObjectError("the FBP frames hold NaN or inf: the sinogram cannot be segmented")
-    levels = None
+    candidates: list[tuple[str, float, np.ndarray, np.ndarray]] = []  # route, smoothing_px, frames, levels [K + 1]
     if route != "otsu":
-        levels = mixture_levels(frames, n_objects, rng, kappa, share)
+        classes = mixture_classes(frames, n_objects, rng, kappa, share)
+        levels = algorithm1_levels(classes, n_objects)
         if levels is None and route == "gmm":
             raise NoObjectError(f"Algorithm 1 found fewer than n_objects = {n_objects} distinct intensity levels "
                                 "brighter than the background in the FBP frames (init.route=auto falls back to Otsu)")
-    chosen, smoothing = "gmm", 0.0
-    if levels is None:
-        chosen = "otsu"
-        frames, smoothing, noise = smoothed_until_found(frames, n_objects)
-        levels = otsu_levels(frames, n_objects, noise)
+        if levels is not None:
+            candidates.append(("gmm", 0.0, frames, levels))
+        if judge is not None:
+            candidates += [("gmm", 0.0, frames, c) for c in class_choices(classes, n_objects)]
+    if route == "otsu" or judge is not None or not candidates:
+        try:
+            smooth, px, noise = smoothed_until_found(frames, n_objects)
+            candidates.append(("otsu", px, smooth, otsu_levels(smooth, n_objects, noise)))
+        except NoObjectError:
+            if not candidates:
+                raise
+    best: tuple[float, Segmentation] | None = None
+    for chosen, smoothing, used, levels in candidates if judge is not None else candidates[:1]:
+        masks, intensities = nest(assign(used, levels), levels)
+        misfit = 0.0
+        if judge is not None:
+            misfit, intensities = judge(masks)
+        if best is None or misfit < best[0]:
+            best = misfit, Segmentation(masks, intensities, chosen, float(levels[0]), smoothing,
+                                        misfit if judge is not None else None)
+    return best[1]
+
+
+def assign(frames: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """Each pixel to the nearest of ``levels`` [K + 1] (background first): masks [F, K, H, W] bool."""
     nearest = np.argmin(np.abs(frames[..., None] - levels.astype(np.float32)), axis=-1)
-    masks = np.stack([nearest == k + 1 for k in range(n_objects)], axis=1)
-    masks, intensities = nest(masks, levels)
-    return Segmentation(masks=masks, intensities=intensities, route=chosen, background=float(levels[0]),
-                        smoothing_px=smoothing)
+    return np.stack([nearest == k + 1 for k in range(len(levels) - 1)], axis=1)
 
 
 def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,34 +184,61 @@ def foreground_threshold(frames: np.ndarray, background: float, noise: float | N
     return background + max(NOISE_SIGMAS * noise, MIN_CONTRAST * (peak - background))
 
 
-def mixture_levels(frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int,
-                   share: float) -> np.ndarray | None:
-    """Algorithm 1: background and K object levels [K + 1] ordered by peak x contrast, or None
-    when the mixture does not hold K distinct levels above the foreground threshold."""
+@dataclass(frozen=True)
+class MixtureClasses:
+    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its mean, spread and
+    pixel count [C]; ``background``: the class with most pixels; ``lowest``: the foreground threshold."""
+
+    means: np.ndarray
+    spread: np.ndarray
+    count: np.ndarray
+    background: int
+    lowest: float
+
+    @property
+    def score(self) -> np.ndarray:
+        """Peak height times contrast: a true level is a sharp histogram peak (many pixels, small
+        spread); partial-volume and streak classes are broad."""
+        return self.count / self.spread * (self.means - self.means[self.background])
+
+
+def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int,
+                    share: float) -> MixtureClasses:
+    """Fit K + kappa + 1 Gaussian classes to ``share`` of the frames (at least one), drawn with ``rng``."""
     n_fit = max(1, int(round(share * len(frames))))
-    chosen = rng.choice(len(frames), size=n_fit, replace=False)
+    sample = frames[rng.choice(len(frames), size=n_fit, replace=False)].reshape(-1)
+    flat = frames.reshape(-1)
     n_classes = n_objects + kappa + 1
     gmm = GaussianMixture(n_classes, n_init=3, random_state=int(rng.integers(2**31 - 1)))
-    gmm.fit(frames[chosen].reshape(-1, 1).astype(np.float64))
-    labels = gmm.predict(frames.reshape(-1, 1).astype(np.float64))
+    gmm.fit(sample.reshape(-1, 1).astype(np.float64))
+    labels = gmm.predict(flat.reshape(-1, 1).astype(np.float64))
     means = gmm.means_[:, 0]
-    spread = np.sqrt(gmm.covariances_.reshape(n_classes))
-    count = np.bincount(labels.ravel(), minlength=n_classes)
+    count = np.bincount(labels, minlength=n_classes)
     background = int(np.argmax(count))
-    lowest = foreground_threshold(frames, float(means[background]))
-    # A true level is a sharp histogram peak (many pixels, small spread); partial-volume and
-    # streak classes are broad. Rank by peak height times contrast.
-    score = count / spread * (means - means[background])
+    return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
+                          foreground_threshold(frames, float(means[background])))
+
+
+def algorithm1_levels(classes: MixtureClasses, n_objects: int) -> np.ndarray | None:
+    """Algorithm 1: background and K object levels [K + 1] ordered by peak x contrast, or None
+    when the mixture does not hold K distinct levels above the foreground threshold."""
+    means, spread = classes.means, classes.spread
 
     def same(a: int, b: int) -> bool:
         return abs(means[a] - means[b]) <= SAME_LEVEL * max(spread[a], spread[b])
 
     found: list[int] = []
-    for c in np.argsort(-score):
-        distinct = not any(same(c, o) for o in [background, *found])
-        if means[c] >= lowest and distinct and len(found) < n_objects:
+    for c in np.argsort(-classes.score):
+        distinct = not any(same(c, o) for o in [classes.background, *found])
+        if means[c] >= classes.lowest and distinct and len(found) < n_objects:
             found.append(int(c))
-    return means[[background, *found]] if len(found) == n_objects else None
+    return means[[classes.background, *found]] if len(found) == n_objects else None
+
+
+def class_choices(classes: MixtureClasses, n_objects: int) -> list[np.ndarray]:
+    """Every choice of K classes above the foreground threshold as levels [K + 1] (background first)."""
+    above = [c for c in range(len(classes.means)) if c != classes.background and classes.means[c] >= classes.lowest]
+    return [classes.means[[classes.background, *chosen]] for chosen in combinations(above, n_objects)]
 
 
 def otsu_levels(frames: np.ndarray, n_objects: int, noise: float | None = None) -> np.ndarray:
