@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+import torch
 from skimage.draw import ellipse
 from skimage.transform import radon
 
@@ -152,3 +153,18 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
     assert "resumed" not in stages["refine_fit"] and stages["refine_fit"]["steps"] == 5
     np.testing.assert_array_equal(np.load(killed / "reconstruction.npz")["nct"],
                                   np.load(whole / "reconstruction.npz")["nct"])
+
+
+def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path):
+    """A checkpoint written by an older model (here without the per-object static buffers) ends
+    the resumed run with one named InputError, not a traceback from load_state_dict."""
+    steps = ("logger=none",)
+    run_job(tiny_cfg(*steps), tmp_path, list(steps))
+    ckpt = tmp_path / "checkpoints" / "fit" / "last.ckpt"
+    saved = torch.load(ckpt, weights_only=True)
+    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if not k.endswith("moving")}
+    torch.save(saved, ckpt)
+    (tmp_path / "metrics.json").unlink()
+    (tmp_path / "status.json").write_text(json.dumps(read(tmp_path / "status.json") | {"status": "running"}))
+    with pytest.raises(InputError, match=r"resume: the checkpoint of stage fit .* does not fit this version's model"):
+        run_job(tiny_cfg(*steps, "resume=true"), tmp_path, list(steps))

@@ -395,7 +395,12 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     folder = Path(log_dir) / "checkpoints" / name if log_dir is not None else None
     if resume and folder is not None and (folder / RECORD).is_file():
         weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
-        module.load_state_dict(weights)
+        try:
+            module.load_state_dict(weights)
+        except RuntimeError as err:
+            detail = str(err).splitlines()[1].strip() if len(str(err).splitlines()) > 1 else str(err)
+            raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
+                             f"({detail}); rerun it in a new folder") from None
         log.info("resume: stage %s loaded from %s", name, folder)
         return json.loads((folder / RECORD).read_text()) | {"resumed": True}
     every = check_every if data.held else 0
