@@ -19,7 +19,8 @@ from nct.geometry import Geometry
 from nct.projector import project
 from nct.segment import Judge
 
-MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more
+MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more ...
+MAX_PIXELS = 2**25  # ... and fewer where their mask images would hold more pixels than this (memory)
 MIN_SHARE = 0.05  # an object's intensity is at least this share of the brightest (log-parameterised a(k) > 0)
 
 
@@ -30,24 +31,22 @@ def sinogram_judge(
     times: torch.Tensor,
     geometry: Geometry,
     extent: float,
-    max_views: int = MAX_VIEWS,
 ) -> Judge:
-    """A `segment.Judge` over up to ``max_views`` of the views values [V, n_bins], angles [V] rad,
-    times [V]: each view sees the mask frame nearest its time (``mask_times`` [F], same units).
-    Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||."""
-    pick = np.linspace(0, values.shape[0] - 1, min(max_views, values.shape[0])).round().astype(int)
-    nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
-    measured = values[pick].reshape(-1).double().numpy()
-    scale = float(np.linalg.norm(measured)) or 1.0
-    view_angles = angles[pick]
+    """A `segment.Judge` over up to MAX_VIEWS of the views values [V, n_bins], angles [V] rad,
+    times [V], spread evenly: each view sees the mask frame nearest its time (``mask_times`` [F],
+    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||."""
 
     @torch.no_grad()
     def judge(masks: np.ndarray) -> tuple[float, np.ndarray]:
-        images = torch.from_numpy(masks).float()[nearest]  # [v, K, H, W]
-        v, k = images.shape[:2]
-        per_object = project(images.transpose(0, 1).reshape(k * v, *images.shape[2:]), view_angles.repeat(k),
-                             geometry, extent)  # [K * v, n_bins]
+        n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // masks[0].size))
+        pick = np.linspace(0, values.shape[0] - 1, n).round().astype(int)
+        nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
+        images = torch.from_numpy(masks).float()[nearest]  # [n, K, H, W]
+        k = images.shape[1]
+        per_object = project(images.transpose(0, 1).reshape(k * n, *images.shape[2:]), angles[pick].repeat(k),
+                             geometry, extent)  # [K * n, n_bins]
+        measured = values[pick].reshape(-1).double().numpy()
         a, residual = nnls(per_object.reshape(k, -1).T.double().numpy(), measured)
-        return residual / scale, np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
+        return residual / max(float(np.linalg.norm(measured)), 1e-30), np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
 
     return judge
