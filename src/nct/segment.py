@@ -107,16 +107,19 @@ def segment(
         except NoObjectError:
             if not candidates:
                 raise
-    best: tuple[float, Segmentation] | None = None
-    for chosen, smoothing, used, levels in candidates if judge is not None else candidates[:1]:
-        masks, intensities = nest(assign(used, levels), levels)
-        misfit = 0.0
-        if judge is not None:
-            misfit, intensities = judge(masks)
-        if best is None or misfit < best[0]:
-            best = misfit, Segmentation(masks, intensities, chosen, float(levels[0]), smoothing,
-                                        misfit if judge is not None else None)
-    return best[1]
+    if judge is None:
+        return _segmentation(*candidates[0])
+    return min((_segmentation(*c, judge) for c in candidates), key=lambda seg: seg.misfit)
+
+
+def _segmentation(route: str, smoothing: float, frames: np.ndarray, levels: np.ndarray,
+                  judge: Judge | None = None) -> Segmentation:
+    """The masks that ``levels`` [K + 1] draw on ``frames``, nested; the judge's misfit and a(k) when given."""
+    masks, intensities = nest(assign(frames, levels), levels)
+    misfit = None
+    if judge is not None:
+        misfit, intensities = judge(masks)
+    return Segmentation(masks, intensities, route, float(levels[0]), smoothing, misfit)
 
 
 def assign(frames: np.ndarray, levels: np.ndarray) -> np.ndarray:
