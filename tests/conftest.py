@@ -35,6 +35,13 @@ def compose_config(overrides: list[str], with_hydra: bool = False) -> DictConfig
         GlobalHydra.instance().clear()
 
 
+@pytest.fixture(autouse=True, scope="session")
+def one_thread() -> None:
+    """One torch thread for the whole suite: a fit's numbers depend on the thread count, and
+    in-process CLI runs would otherwise change it from one test to the next."""
+    torch.set_num_threads(1)
+
+
 DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
 
 

@@ -134,12 +134,13 @@ def test_heldout_views_are_scored_as_validation(acquisition):
 
 
 def test_coarse_lattice_fits_as_well(acquisition):
-    """The first pass on a lattice half the image's side explains the held-out views about as well."""
+    """The first pass on a lattice half the image's side explains the held-out views about as well,
+    summed over seeds 0-2 (one seed's ratio ranges 1.0-1.5 with the seed and the thread count)."""
     sino, times = acquisition
-    full = run(sino, times)
-    coarse = run(sino, times, replace(OPTIM, coarse_size=16))
-    assert not np.array_equal(coarse.frames, full.frames)
-    assert coarse.heldout_loss < 1.3 * full.heldout_loss
+    full = [run(sino, times, seed=s) for s in range(3)]
+    coarse = [run(sino, times, replace(OPTIM, coarse_size=16), seed=s) for s in range(3)]
+    assert not np.array_equal(coarse[0].frames, full[0].frames)
+    assert sum(r.heldout_loss for r in coarse) < 1.3 * sum(r.heldout_loss for r in full)
 
 
 def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisition):
@@ -150,3 +151,20 @@ def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisiti
     l1, weighted = run(noisy, times), run(noisy, times, loss=poisson)
     assert not np.array_equal(weighted.frames, l1.frames)
     assert weighted.heldout_loss == pytest.approx(l1.heldout_loss, rel=0.1)
+
+
+def test_a_fit_that_loses_its_way_is_rerun_at_half_the_rates(acquisition):
+    """An intensity rate of 6 drives a(k) to nothing (misfit 1 from 0.15); each retry halves the rates,
+    the attempt with the lowest misfit on the held-out views is kept and its field returned."""
+    sino, times = acquisition
+    wild = replace(OPTIM, intensity_lr=6.0)
+    lost = run(sino, times, replace(wild, retries=0))
+    assert [k for k in lost.stages if k.startswith("fit")] == ["fit"]
+    assert lost.stages["fit"]["misfit_end"] > 3 * lost.stages["fit"]["misfit_start"]
+    result = run(sino, times, replace(wild, retries=2))
+    fits = {k: v for k, v in result.stages.items() if k.startswith("fit")}
+    assert list(fits) == ["fit", "fit_retry1", "fit_retry2"]
+    assert [k for k, v in fits.items() if v["kept"]] == ["fit_retry2"]
+    assert fits["fit_retry2"]["misfit_end"] < 0.7 * fits["fit"]["misfit_start"]
+    assert result.heldout_loss == pytest.approx(fits["fit_retry2"]["misfit_end"], rel=1e-5)
+    assert result.heldout_loss < 0.2 * lost.heldout_loss

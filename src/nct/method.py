@@ -7,6 +7,8 @@ rotations from the first view, derived from the views' angles and times.
 
 from __future__ import annotations
 
+import copy
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -29,6 +31,8 @@ from nct.segment import segment
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.stages import LOGGERS, IndexDataModule, InitFit, MinLossStop, SinogramFit, Views, run_stage
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -103,19 +107,49 @@ class _Problem:
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
               render: RenderConf, targets: np.ndarray, stages: dict, lattice: int | None = None) -> SinogramFit:
     """One pass: InitFit to SDF ``targets`` then SinogramFit, the field on a ``lattice``^2 lattice
-    (None: the grid's); records both stages in ``stages``."""
+    (None: the grid's); records the stages in ``stages``. A SinogramFit whose misfit ends above
+    where it started is rerun from the InitFit's field at half the rates (``optim.retries``) and
+    the attempt with the lowest misfit kept."""
     init_steps, fit_steps = steps
     n_init = prob.init_times.shape[0]
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
     stages[prefix + "init"] = run_stage(
         init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
         init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, resume=prob.resume)
-    fit = SinogramFit(net, prob.grid, optim, render, prob.loss, prob.views, fit_steps, lattice)
-    stages[prefix + "fit"] = run_stage(
-        fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
-        fit_steps, prefix + "fit", prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
-        prob.check_every, prob.resume)
+    started = copy.deepcopy(net.state_dict())
+    check = torch.from_numpy(_check_views(prob))
+    attempts: list[tuple[float, dict, str, SinogramFit]] = []
+    for attempt in range(optim.retries + 1):
+        rate = 0.5**attempt
+        fit = SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
+                          render, prob.loss, prob.views, fit_steps, lattice)
+        start = fit.sinogram_loss(check) if attempt == 0 else start
+        name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
+        stages[name] = run_stage(
+            fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
+            fit_steps, name, prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
+            prob.check_every, prob.resume)
+        end = fit.sinogram_loss(check)
+        stages[name] |= {"misfit_start": start, "misfit_end": end}
+        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit))
+        if end <= start:
+            break
+        log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", name, start, end,
+                    "rerunning it from its start at half the rates" if attempt < optim.retries
+                    else "keeping the best attempt")
+        net.load_state_dict(started)
+    _, state, kept, fit = min(attempts, key=lambda a: a[0])
+    for _, _, name, _ in attempts:
+        stages[name]["kept"] = name == kept
+    net.load_state_dict(state)
     return fit
+
+
+def _check_views(prob: _Problem, most: int = 64) -> np.ndarray:
+    """The views that judge whether a fit went astray: the held-out ones, or up to ``most`` fitted ones."""
+    if len(prob.held_views):
+        return prob.held_views
+    return prob.fit_views[np.unique(np.linspace(0, len(prob.fit_views) - 1, most).round().astype(int))]
 
 
 def _heldout(prob: _Problem, fit: SinogramFit) -> float:

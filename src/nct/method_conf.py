@@ -148,6 +148,10 @@ class OptimConf:
     upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
     the field costs (image / coarse)^2 less per step); the refinement uses the image's own
     lattice. null, or not below the image size: the image's lattice throughout.
+    retries: a SinogramFit whose misfit (relative L1 at the final band, on the held-out views or
+    up to 64 fitted ones) ends above where it started has lost its way, e.g. an object dropped
+    out of the band where no gradient reaches it; it is rerun from its InitFit at half the rates,
+    up to this many times, and the best attempt kept.
     """
 
     init_steps: int = 300
@@ -166,13 +170,15 @@ class OptimConf:
     intensity_lr: float = 1e-2
     divergence_factor: float = 20.0
     coarse_size: Optional[int] = 64
+    retries: int = 1
 
     def __post_init__(self) -> None:
         require(self.coarse_size is None or self.coarse_size >= 8, "optim.coarse_size", ">= 8 or null",
                 self.coarse_size)
         for key in ("lr_decay_every", "batch_views"):
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
-        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):
+        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss",
+                    "retries"):
             require(getattr(self, key) >= 0, f"optim.{key}", ">= 0", getattr(self, key))
         for key in ("lr", "refine_lr", "intensity_lr"):
             require(getattr(self, key) > 0, f"optim.{key}", "> 0", getattr(self, key))

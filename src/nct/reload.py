@@ -72,11 +72,12 @@ def _read_json(path: Path) -> dict:
     return json.loads(path.read_text())
 
 
-def _checkpoint(run_dir: Path, stages: list[str], n_terms: int, auto: bool) -> Path:
+def _checkpoint(run_dir: Path, stages: dict, n_terms: int, auto: bool) -> Path:
     """The last saved stage checkpoint of the chosen field: the refinement's if any, else the first
-    pass's (with ``capacity.auto``, the chosen rung's ``m<M>_`` stages)."""
+    pass's (with ``capacity.auto``, the chosen rung's ``m<M>_`` stages); a fit attempt that was
+    not kept (``method._fit_pass``) is skipped."""
     prefix = f"m{n_terms}_" if auto else ""
-    ours = [s for s in stages if s.startswith(("refine_", prefix))]
+    ours = [s for s, record in stages.items() if s.startswith(("refine_", prefix)) and record.get("kept", True)]
     saved = [run_dir / "checkpoints" / s / "last.ckpt" for s in ours]
     saved = [p for p in saved if p.is_file()]
     if not saved:
@@ -101,7 +102,7 @@ def load_run(run_dir: Path) -> FittedRun:
     n_terms = int(metrics["capacity"]["n_terms"])
     model: ModelConf = replace(_typed(ModelConf, cfg.model), n_terms=n_terms)
     auto = bool(cfg.capacity.auto)
-    path = _checkpoint(run_dir, list(metrics["stages"]), n_terms, auto)
+    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto)
     # The run's own construction (method.reconstruct): its seed draws the frequencies; every
     # tensor, the frequencies ``omega`` included, is then restored from the checkpoint.
     net = build_field(model, len(metrics["intensities"]), torch.Generator().manual_seed(int(cfg.seed)))
