@@ -119,11 +119,15 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     started = copy.deepcopy(net.state_dict())
     check = torch.from_numpy(_check_views(prob))
     attempts: list[tuple[float, dict, str, SinogramFit]] = []
+
+    def sinogram_fit(rate: float) -> SinogramFit:
+        return SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
+                           render, prob.loss, prob.views, fit_steps, lattice)
+
+    fit = sinogram_fit(1.0)
+    start = fit.sinogram_loss(check)
     for attempt in range(optim.retries + 1):
-        rate = 0.5**attempt
-        fit = SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
-                          render, prob.loss, prob.views, fit_steps, lattice)
-        start = fit.sinogram_loss(check) if attempt == 0 else start
+        fit = sinogram_fit(0.5**attempt) if attempt else fit
         name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
         stages[name] = run_stage(
             fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
