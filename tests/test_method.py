@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from nct.errors import DivergenceError
-from nct.method import reconstruct, rotations_since_start, split_views
+from nct.method import heldout_standard_error, reconstruct, rotations_since_start, split_views
 from nct.scanner import ImageGrid
 from nct.sinogram import Sinogram, Truth
 from nct.method_conf import HeldoutConf, LossConf, RenderConf
@@ -44,6 +44,7 @@ def test_runs_fits_and_is_seeded(acquisition):
     # Fitting the sinogram lowers the misfit on views it never saw.
     unfitted = run(sino, times, replace(OPTIM, fit_steps=0))
     assert result.heldout_loss < 0.8 * unfitted.heldout_loss
+    assert 0 < result.heldout_se < 0.5 * result.heldout_loss
 
 
 def test_fit_never_reads_the_truth(acquisition):
@@ -168,3 +169,12 @@ def test_a_fit_that_loses_its_way_is_rerun_at_half_the_rates(acquisition):
     assert fits["fit_retry2"]["misfit_end"] < 0.7 * fits["fit"]["misfit_start"]
     assert result.heldout_loss == pytest.approx(fits["fit_retry2"]["misfit_end"], rel=1e-5)
     assert result.heldout_loss < 0.2 * lost.heldout_loss
+
+
+def test_heldout_standard_error_comes_from_blocks_of_neighbouring_views():
+    rng = np.random.default_rng(0)
+    independent = rng.normal(1.0, 0.1, 1000)
+    assert heldout_standard_error(independent) == pytest.approx(0.1 / np.sqrt(1000), rel=0.35)
+    drifting = np.linspace(0.9, 1.1, 1000)  # misfits that follow the motion: neighbours alike
+    assert heldout_standard_error(drifting) > 5 * drifting.std() / np.sqrt(1000)
+    assert np.isnan(heldout_standard_error(np.ones(1)))

@@ -148,7 +148,7 @@ def test_tv_grid_heat_map(tmp_path: Path):
     assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
     assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
     # one scene, three finished settings: held-out loss 1 - Dice picks job 2, the best Dice too
-    assert ("- 3 jobs of one scene: the lowest held-out loss picks job 2 (loss.tv_space=1 loss.tv_time=0), "
+    assert ("- 3 jobs of one scene: the truth-free score picks job 2 (loss.tv_space=1 loss.tv_time=0), "
             "NCT median Dice 0.7; the best Dice is job 2's 0.7: 0 lost.") in report.summary.read_text()
 
 
@@ -162,6 +162,18 @@ def test_truth_free_choice_is_per_scene_and_says_what_it_loses(tmp_path: Path):
     text = write_report(sweep).summary.read_text()
     assert "picks job 0 (model.f_max=0.3 seed=0), NCT median Dice 0.95; the best Dice is job 0's 0.95: 0 lost." in text
     assert "picks job 3 (model.f_max=3 seed=1), NCT median Dice 0.82; the best Dice is job 2's 0.94: 0.12 lost." in text
+
+
+def test_truth_free_choice_takes_the_simplest_within_one_standard_error(tmp_path: Path):
+    """F_max 3 has the lowest held-out loss; F_max 0.3 is within its standard error (0.002), F_max 0
+    is not: the rule picks F_max 0.3. With a standard error of 0.0005 it keeps F_max 3."""
+    for se, picked, dice in ((0.002, "job 1 (model.f_max=0.3)", "0.95"), (0.0005, "job 2 (model.f_max=3)", "0.83")):
+        sweep = make_sweep(tmp_path / f"se{se}", {"model.f_max": "0,0.3,3"}, [])
+        for num, (f, d, held) in enumerate([(0, 0.6, 0.3), (0.3, 0.95, 0.0335), (3, 0.83, 0.0320)]):
+            make_job(sweep, num, [f"model.f_max={f}"], {"status": "ok", "error": None, "wall_time_s": 1.0},
+                     ok_metrics(d, 0.8, 1.0) | {"heldout_loss": held, "heldout_se": se})
+        text = write_report(sweep).summary.read_text()
+        assert f"the truth-free score picks {picked}, NCT median Dice {dice}; the best Dice is job 1's 0.95" in text
 
 
 def test_optuna_sweep_counts_missing_trials_from_its_jobs(tmp_path: Path):

@@ -42,7 +42,8 @@ class NCTResult:
     frames: [F, H, W] float32 intensity sum_k a(k) zeta_k; sdf: [F, K, H, W] float32 (physical
     units, positive inside); intensities: [K] a(k) estimated from the data (Algorithm 1, then
     fitted with the field when optim.fit_intensities); heldout_loss: relative
-    sinogram L1 on the held-out views (NaN if none); stages: per stage {steps, losses,
+    sinogram L1 on the held-out views (NaN if none) and heldout_se its standard error
+    (``heldout_standard_error``); stages: per stage {steps, losses,
     wall_time_s}; capacity: description of the model; init: how the first SDF frames were
     found (segment.py's route, background and object levels) and the units (normalise.py), in
     the data's units.
@@ -52,6 +53,7 @@ class NCTResult:
     sdf: np.ndarray
     intensities: np.ndarray
     heldout_loss: float
+    heldout_se: float = float("nan")
     stages: dict = field(default_factory=dict)
     capacity: dict = field(default_factory=dict)
     init: dict = field(default_factory=dict)
@@ -160,6 +162,16 @@ def _heldout(prob: _Problem, fit: SinogramFit) -> float:
     return fit.sinogram_loss(torch.from_numpy(prob.held_views)) if len(prob.held_views) else float("nan")
 
 
+def heldout_standard_error(losses: np.ndarray, blocks: int = 10) -> float:
+    """Standard error of the mean of per-view held-out ``losses`` [v] (in time order), from the
+    means of ``blocks`` contiguous blocks: neighbouring views see nearly the same object and
+    angle, so their misfits are not independent. NaN with fewer than 2 views."""
+    if len(losses) < 2:
+        return float("nan")
+    means = [part.mean() for part in np.array_split(losses, min(blocks, len(losses)))]
+    return float(np.std(means, ddof=1) / math.sqrt(len(means)))
+
+
 def reconstruct(
     sino: Sinogram,
     grid: ImageGrid,
@@ -266,8 +278,10 @@ def reconstruct(
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
             "reason": explain(tried, chosen, capacity.tolerance),
         }
+    held = fit.view_losses(torch.from_numpy(prob.held_views))
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf.astype(np.float32), intensities=amplitudes.numpy(),
-                     heldout_loss=_heldout(prob, fit), stages=stages, capacity=described,
+                     heldout_loss=float(held.mean()) if len(held) else float("nan"),
+                     heldout_se=heldout_standard_error(held), stages=stages, capacity=described,
                      init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels,
                            "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
                            "levels": [float(a) * units.intensity for a in seg.intensities],

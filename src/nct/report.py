@@ -26,6 +26,8 @@ from nct.tables import fmt, markdown_table, write_csv
 DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX = "phantom.displacement_deg", "loss.tv_space", "loss.tv_time", "model.f_max"
 PLOTTED_KEYS = (DISPLACEMENT, TV_SPACE, TV_TIME, F_MAX)
 METHODS = ("fbp", "nct")
+#: The settings that order a model's freedom, and which way is simpler: a lower F_max, higher TV weights.
+SIMPLER = ((F_MAX, 1.0), (TV_TIME, -1.0), (TV_SPACE, -1.0))
 SUMMARY_STATS = (("median_dice", "Dice"), ("median_mse", "MSE"))  # per-job summaries the plots show
 
 
@@ -465,24 +467,40 @@ def scenes(jobs: Sequence[Job]) -> dict[tuple[tuple[str, str], ...], list[Job]]:
     return by
 
 
+def truth_free_pick(group: Sequence[Job]) -> Job:
+    """The one-standard-error rule on jobs of one scene: of the jobs whose held-out loss is within
+    one standard error (``heldout_se``, of the lowest) of the lowest, the simplest by the swept
+    settings of ``SIMPLER``, then the lowest loss. Without a standard error (runs before it was
+    recorded) it is the lowest loss."""
+    best = min(group, key=lambda j: j.metric("heldout_loss"))
+    se = best.metric("heldout_se")
+    bound = best.metric("heldout_loss") + (se if math.isfinite(se) else 0.0)
+    swept = [(key, sign) for key, sign in SIMPLER if len({j.settings.get(key) for j in group}) > 1]
+    near = [j for j in group if j.metric("heldout_loss") <= bound]
+    return min(near, key=lambda j: (*(sign * j.settings.get(key, 0.0) for key, sign in swept),
+                                    j.metric("heldout_loss")))
+
+
 def truth_free_lines(jobs: Sequence[Job], varying: Sequence[str]) -> list[str]:
-    """Per scene with two or more jobs: the job the lowest held-out loss picks, and the Dice it
-    gives up against the job the truth would pick (the score is only comparable on the same data)."""
+    """Per scene with two or more jobs: the job the truth-free score picks (``truth_free_pick``), and
+    the Dice it gives up against the job the truth would pick (the score is only comparable on the
+    same data)."""
     lines = []
     for group in scenes(jobs).values():
         if len(group) < 2:
             continue
-        pick = min(group, key=lambda j: j.metric("heldout_loss"))
+        pick = truth_free_pick(group)
         top = max(group, key=lambda j: j.metric("nct.median_dice"))
         lost = top.metric("nct.median_dice") - pick.metric("nct.median_dice")
-        lines.append(f"- {len(group)} jobs of one scene: the lowest held-out loss picks job {pick.num} "
+        lines.append(f"- {len(group)} jobs of one scene: the truth-free score picks job {pick.num} "
                      f"({_label(pick, varying) or 'no varying override'}), NCT median Dice "
                      f"{fmt(pick.metric('nct.median_dice'))}; the best Dice is job {top.num}'s "
                      f"{fmt(top.metric('nct.median_dice'))}: {fmt(lost)} lost.")
     if not lines:
         return ["Truth-free choice: none to make (no two finished jobs share a scene: the held-out loss "
                 "compares settings on the same data only).", ""]
-    return ["Truth-free choice (lowest held-out sinogram loss, among jobs of the same scene):", "", *lines, ""]
+    return ["Truth-free choice (among jobs of the same scene: the simplest setting, lowest F_max then highest TV "
+            "weights, whose held-out sinogram loss is within one standard error of the lowest):", "", *lines, ""]
 
 
 def _varying(jobs: Sequence[Job]) -> list[str]:

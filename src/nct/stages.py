@@ -209,16 +209,26 @@ class SinogramFit(FieldStage):
         return {"loss": loss, "sinogram": sinogram.detach()}
 
     @torch.no_grad()
-    def misfit_sum(self, views: Tensor) -> Tensor:
-        """Sum of |rendered - measured| over ``views`` [v], with the final band, over the data's scale."""
+    def view_misfits(self, views: Tensor) -> Tensor:
+        """|rendered - measured| summed over each view's bins, with the final band, over the data's
+        scale: [v] for ``views`` [v]."""
         band = self.render_conf.band_px * self.grid.pixel_size
         sdf, _ = self.grid_sdf(self.times[views])
-        return (self.render(sdf, views, band) - self.values[views]).abs().sum() / self.scale
+        return (self.render(sdf, views, band) - self.values[views]).abs().sum(-1) / self.scale
+
+    def misfit_sum(self, views: Tensor) -> Tensor:
+        """Sum of ``view_misfits`` over ``views`` [v]."""
+        return self.view_misfits(views).sum()
+
+    def view_losses(self, views: Tensor, chunk: int = 64) -> np.ndarray:
+        """Relative L1 misfit of each of ``views`` [v] with the final band (e.g. held-out views): [v] float64."""
+        parts = [self.view_misfits(part).double().cpu().numpy() for part in views.to(self.device).split(chunk)]
+        return np.concatenate(parts) / self.values.shape[1] if parts else np.zeros(0)
 
     def sinogram_loss(self, views: Tensor, chunk: int = 64) -> float:
-        """Relative L1 misfit over ``views`` [v] with the final band (e.g. held-out views)."""
-        total = sum(float(self.misfit_sum(part)) for part in views.to(self.device).split(chunk))
-        return total / max(1, views.numel() * self.values.shape[1])
+        """Relative L1 misfit over ``views`` [v] with the final band (0 for no views)."""
+        losses = self.view_losses(views, chunk)
+        return float(losses.mean()) if len(losses) else 0.0
 
     def on_validation_epoch_start(self) -> None:
         self._held_sum, self._held_count = 0.0, 0
