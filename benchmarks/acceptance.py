@@ -51,9 +51,11 @@ MSE_FRAME_LIMIT = 0.005
 
 
 def plan(out: Path, seeds: Sequence[int], scenes: dict[str, Sequence[str]] = SCENES,
-         extra: Sequence[str] = ()) -> list[Job]:
-    """One job per scene, method label and seed in ``out/runs/<scene>/<label>/seed<s>``."""
-    return [Job({"scene": s, "label": label}, method, seed, (*scene, *more, *QUIET, *extra),
+         extra: Sequence[str] = (), nct: Sequence[str] = ()) -> list[Job]:
+    """One job per scene, method label and seed in ``out/runs/<scene>/<label>/seed<s>``; ``nct``:
+    overrides of the NeuralCT runs only (a candidate setting measured against the same FBP)."""
+    return [Job({"scene": s, "label": label}, method, seed,
+                (*scene, *more, *QUIET, *extra, *(nct if method == "nct" else ())),
                 out / "runs" / s / label / f"seed{seed}")
             for s, scene in scenes.items() for label, (method, more) in METHODS.items()
             if label != "fbp360" or s in FBP360_SCENES for seed in seeds]
@@ -149,11 +151,13 @@ def write_outputs(out: Path, records: Sequence[Record], command: str, elapsed_s:
 def main(argv: Sequence[str] | None = None) -> None:
     parser = benchmark_parser("acceptance", __doc__.split("\n\n")[0], "not used here", "default: 0 1 2 3 4")
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
+    parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                        help="an override of every NeuralCT run (repeatable), e.g. a candidate default")
     args = parser.parse_args(argv)
     seeds = args.seeds or [0, 1, 2, 3, 4]
     start = time.perf_counter()
-    records = run_jobs(plan(args.out, seeds, {s: SCENES[s] for s in args.scenes}), args.jobs, args.resume,
-                       args.timeout, args.threads)
+    records = run_jobs(plan(args.out, seeds, {s: SCENES[s] for s in args.scenes}, nct=args.override), args.jobs,
+                       args.resume, args.timeout, args.threads)
     command = "python benchmarks/acceptance.py " + " ".join(sys.argv[1:] if argv is None else argv)
     write_outputs(args.out, records, command.strip(), time.perf_counter() - start)
     print((args.out / "acceptance.md").read_text())

@@ -254,6 +254,8 @@ def test_acceptance_plans_fbp_360_for_the_circle_only(tmp_path):
     assert ("circle_100", "fbp360") in labels and ("static", "fbp360") not in labels
     assert len(jobs) == 2 * (6 * 2 + 1)
     assert "fbp.window_deg=360" in jobs[2].overrides + jobs[3].overrides
+    candidate = accept.plan(tmp_path, [0], nct=("optim.refine=false",))
+    assert all(("optim.refine=false" in j.overrides) == (j.method == "nct") for j in candidate)
 
 
 def test_a_failed_seed_fails_the_frame_criterion(tmp_path):
