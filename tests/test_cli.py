@@ -47,7 +47,7 @@ def nct(tmp_path, monkeypatch, capsys):
     (["+optim.learning_rate=1"], "unknown key optim.learning_rate: not a setting of optim (OptimConf); its keys: "
                                  "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
                                  "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
-                                 "intensity_lr, divergence_factor, coarse_size"),
+                                 "intensity_lr, divergence_factor, coarse_size, retries"),
     (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
                                        "'str' could not be converted to Float (key: phantom.displacement_deg)"),
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
