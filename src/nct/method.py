@@ -107,11 +107,13 @@ class _Problem:
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
-              render: RenderConf, targets: np.ndarray, stages: dict, lattice: int | None = None) -> SinogramFit:
+              render: RenderConf, targets: np.ndarray, stages: dict,
+              lattice: int | None = None) -> tuple[SinogramFit, np.ndarray]:
     """One pass: InitFit to SDF ``targets`` then SinogramFit, the field on a ``lattice``^2 lattice
     (None: the grid's); records the stages in ``stages``. A SinogramFit whose misfit ends above
     where it started is rerun from the InitFit's field at half the rates (``optim.retries``) and
-    the attempt with the lowest misfit kept."""
+    the attempt with the lowest misfit kept. Returns the fit and its misfit on each of the
+    ``_check_views`` [c]."""
     init_steps, fit_steps = steps
     n_init = prob.init_times.shape[0]
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
@@ -120,14 +122,14 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, resume=prob.resume)
     started = copy.deepcopy(net.state_dict())
     check = torch.from_numpy(_check_views(prob))
-    attempts: list[tuple[float, dict, str, SinogramFit]] = []
+    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray]] = []
 
     def sinogram_fit(rate: float) -> SinogramFit:
         return SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
                            render, prob.loss, prob.views, fit_steps, lattice)
 
     fit = sinogram_fit(1.0)
-    start = fit.sinogram_loss(check)
+    start = float(fit.view_losses(check).mean())
     for attempt in range(optim.retries + 1):
         fit = sinogram_fit(0.5**attempt) if attempt else fit
         name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
@@ -135,20 +137,21 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
             fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
             fit_steps, name, prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
             prob.check_every, prob.resume)
-        end = fit.sinogram_loss(check)
+        losses = fit.view_losses(check)
+        end = float(losses.mean())
         stages[name] |= {"misfit_start": start, "misfit_end": end}
-        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit))
+        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit, losses))
         if end <= start:
             break
         log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", name, start, end,
                     "rerunning it from its start at half the rates" if attempt < optim.retries
                     else "keeping the best attempt")
         net.load_state_dict(started)
-    _, state, kept, fit = min(attempts, key=lambda a: a[0])
-    for _, _, name, _ in attempts:
+    _, state, kept, fit, losses = min(attempts, key=lambda a: a[0])
+    for _, _, name, _, _ in attempts:
         stages[name]["kept"] = name == kept
     net.load_state_dict(state)
-    return fit
+    return fit, losses
 
 
 def _check_views(prob: _Problem, most: int = 64) -> np.ndarray:
@@ -158,8 +161,14 @@ def _check_views(prob: _Problem, most: int = 64) -> np.ndarray:
     return prob.fit_views[np.unique(np.linspace(0, len(prob.fit_views) - 1, most).round().astype(int))]
 
 
-def _heldout(prob: _Problem, fit: SinogramFit) -> float:
-    return fit.sinogram_loss(torch.from_numpy(prob.held_views)) if len(prob.held_views) else float("nan")
+def _held_losses(prob: _Problem, checked: np.ndarray) -> np.ndarray:
+    """The held-out views' misfits [h] among a pass's ``checked`` ones (``_check_views``): none
+    when no view is held out (the check then ran on fitted views)."""
+    return checked if len(prob.held_views) else np.zeros(0)
+
+
+def _mean_or_nan(losses: np.ndarray) -> float:
+    return float(losses.mean()) if len(losses) else float("nan")
 
 
 def heldout_standard_error(losses: np.ndarray, blocks: int = 10) -> float:
@@ -237,20 +246,20 @@ def reconstruct(
                     heldout.check_every, resume)
 
     stages: dict = {}
-    fitted: dict[int, tuple[Field, SinogramFit]] = {}
+    fitted: dict[int, tuple[Field, SinogramFit, np.ndarray]] = {}
 
     def fit_rung(n_terms: int) -> Rung:
         with torch.random.fork_rng():  # each rung's weights from the seed alone, whatever ran before (resume)
             torch.manual_seed(seed)
             net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
         net.set_intensities(torch.tensor(seg.intensities, dtype=torch.float32))
-        fit = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
+        fit, checked = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
                         optim, render, targets, stages, optim.coarse_size)
-        fitted[n_terms] = net, fit
-        return Rung(n_terms, _heldout(prob, fit), net.describe()["n_params"])
+        fitted[n_terms] = net, fit, checked
+        return Rung(n_terms, _mean_or_nan(_held_losses(prob, checked)), net.describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
-    net, fit = fitted[chosen.n_terms]
+    net, fit, checked = fitted[chosen.n_terms]
 
     masks = binarise(field_frames(fit, prob.init_times))
     objects = object_models(boundary_motion_px(masks), capacity.static_below_px if chosen.n_terms else math.inf)
@@ -263,7 +272,7 @@ def reconstruct(
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
         targets = masks_to_sdf(masks, grid.pixel_size, workers=torch.get_num_threads())
-        fit = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
+        fit, checked = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, stages)
 
@@ -278,9 +287,9 @@ def reconstruct(
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,
             "reason": explain(tried, chosen, capacity.tolerance),
         }
-    held = fit.view_losses(torch.from_numpy(prob.held_views))
+    held = _held_losses(prob, checked)
     return NCTResult(frames=frames.astype(np.float32), sdf=sdf.astype(np.float32), intensities=amplitudes.numpy(),
-                     heldout_loss=float(held.mean()) if len(held) else float("nan"),
+                     heldout_loss=_mean_or_nan(held),
                      heldout_se=heldout_standard_error(held), stages=stages, capacity=described,
                      init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels,
                            "levels_misfit": seg.misfit, "background": seg.background * units.intensity,

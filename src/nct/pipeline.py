@@ -80,8 +80,8 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             resume=conf.resume,
         )
         frames["nct"] = result.frames
-        extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "capacity": result.capacity, "stages": result.stages,
-                 "intensities": [float(a) for a in result.intensities], "init": result.init}
+        extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "capacity": result.capacity,
+                 "stages": result.stages, "intensities": [float(a) for a in result.intensities], "init": result.init}
     return frames, extra
 
 

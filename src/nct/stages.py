@@ -225,11 +225,6 @@ class SinogramFit(FieldStage):
         parts = [self.view_misfits(part).double().cpu().numpy() for part in views.to(self.device).split(chunk)]
         return np.concatenate(parts) / self.values.shape[1] if parts else np.zeros(0)
 
-    def sinogram_loss(self, views: Tensor, chunk: int = 64) -> float:
-        """Relative L1 misfit over ``views`` [v] with the final band (0 for no views)."""
-        losses = self.view_losses(views, chunk)
-        return float(losses.mean()) if len(losses) else 0.0
-
     def on_validation_epoch_start(self) -> None:
         self._held_sum, self._held_count = 0.0, 0
 
