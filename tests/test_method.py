@@ -109,6 +109,9 @@ def test_every_tenth_view_is_held_out():
     np.testing.assert_array_equal(held, [5, 15, 25])
     assert len(fit) == 27 and not set(fit) & set(held)
     assert len(split_views(30, 0)[1]) == 0
+    fit, held = split_views(40, 4, run=3)  # blocks of time: every 4th run of 3 consecutive views
+    np.testing.assert_array_equal(held, [6, 7, 8, 18, 19, 20, 30, 31, 32])
+    assert len(fit) == 31 and not set(fit) & set(held)
 
 
 def test_bad_arguments(acquisition):

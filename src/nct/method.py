@@ -69,11 +69,12 @@ def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor
     return lambda t: torch.as_tensor((np.asarray(t, dtype=np.float64) - t0) * turns_per_s, dtype=torch.float32)
 
 
-def split_views(n_views: int, every: int) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the fitted and the held-out views (every ``every``-th, from the middle of each run)."""
-    held = np.zeros(n_views, dtype=bool)
-    if every > 1:
-        held[every // 2 :: every] = True
+def split_views(n_views: int, every: int, run: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the fitted and the held-out views: runs of ``run`` consecutive views, every
+    ``every``-th run held out (the middle one of each ``every`` runs)."""
+    if every < 2:
+        return np.arange(n_views), np.zeros(0, dtype=int)
+    held = (np.arange(n_views) // run) % every == every // 2
     return np.flatnonzero(~held), np.flatnonzero(held)
 
 
@@ -220,7 +221,7 @@ def reconstruct(
     L.seed_everything(seed, verbose=False)
     rng = np.random.default_rng(seed)
     clock = rotations_since_start(sino)
-    fit_views, held_views = split_views(sino.n_views, heldout.every)
+    fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
     if capacity.auto and not len(held_views):
         raise ValueError("capacity.auto needs held-out views: set heldout.every >= 2")
     n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))

@@ -242,13 +242,16 @@ class InitConf:
 @dataclass
 class HeldoutConf:
     """The held-out split (config group ``heldout``): every n-th view is kept out of every fit
-    (FBP included) and scores it, a truth-free number (0 or 1: none held out). check_every:
+    (FBP included) and scores it, a truth-free number (0 or 1: none held out); with run > 1, every
+    n-th run of that many consecutive views (blocks of time). check_every:
     SinogramFit scores them as Lightning validation every this many steps (``val/heldout_loss``
     in TensorBoard; 0: only after each pass)."""
 
     every: int = 10
+    run: int = 1
     check_every: int = 100
 
     def __post_init__(self) -> None:
         require(self.every >= 0, "heldout.every", ">= 0", self.every)
+        require(self.run >= 1, "heldout.run", ">= 1", self.run)
         require(self.check_every >= 0, "heldout.check_every", ">= 0", self.check_every)
