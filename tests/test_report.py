@@ -123,7 +123,7 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     assert "- job 7 (phantom.displacement_deg=200 seed=1): **unfinished**" in text
     assert "- job 8 (phantom.displacement_deg=200 seed=2): **missing**" in text
     # every job has its own data (displacement and seed): no truth-free choice across scenes
-    assert "Truth-free choice: none to make (no two finished jobs share a scene" in text
+    assert "Truth-free choice: none to make (no two settings ran on the same scene" in text
     assert "![displacement](displacement.png)" in text
     assert f"    nct -m sweep=displacement_quick hydra.sweep.dir={displacement_sweep} resume=true" in text
     assert (displacement_sweep / "report" / "report.csv").is_file()
@@ -148,20 +148,47 @@ def test_tv_grid_heat_map(tmp_path: Path):
     assert "tv_grid" in report.plots and "displacement" not in report.plots and "f_max" not in report.plots
     assert "**diverged**: DivergenceError: loss is nan" in report.summary.read_text()
     # one scene, three finished settings: held-out loss 1 - Dice picks job 2, the best Dice too
-    assert ("- 3 jobs of one scene: the truth-free score picks job 2 (loss.tv_space=1 loss.tv_time=0), "
-            "NCT median Dice 0.7; the best Dice is job 2's 0.7: 0 lost.") in report.summary.read_text()
+    assert ("- 3 settings of one scene: the truth-free score picks job 2 (loss.tv_space=1 loss.tv_time=0), "
+            "NCT median Dice 0.7; the best Dice is job 2 (loss.tv_space=1 loss.tv_time=0)'s 0.7: 0 lost."
+            ) in report.summary.read_text()
 
 
 def test_truth_free_choice_is_per_scene_and_says_what_it_loses(tmp_path: Path):
-    """Two scenes (seeds) of two F_max each; in seed 1 the held-out loss prefers the worse job."""
-    sweep = make_sweep(tmp_path / "f", {"model.f_max": "0.3,3", "seed": "0,1"}, [])
-    cases = [(0.3, 0, 0.95, 0.04), (3, 0, 0.83, 0.05), (0.3, 1, 0.94, 0.05), (3, 1, 0.82, 0.04)]
-    for num, (f, seed, dice, held) in enumerate(cases):
-        make_job(sweep, num, [f"model.f_max={f}", f"seed={seed}"], {"status": "ok", "error": None, "wall_time_s": 1.0},
-                 ok_metrics(dice, 0.8, 1.0) | {"heldout_loss": held})
+    """Two scenes (displacements) of two F_max each; at 150 deg the held-out loss prefers the worse job."""
+    sweep = make_sweep(tmp_path / "f", {"model.f_max": "0.3,3", "phantom.displacement_deg": "100,150"}, [])
+    cases = [(0.3, 100, 0.95, 0.04), (3, 100, 0.83, 0.05), (0.3, 150, 0.94, 0.05), (3, 150, 0.82, 0.04)]
+    for num, (f, deg, dice, held) in enumerate(cases):
+        make_job(sweep, num, [f"model.f_max={f}", f"phantom.displacement_deg={deg}"],
+                 {"status": "ok", "error": None, "wall_time_s": 1.0}, ok_metrics(dice, 0.8, 1.0) | {"heldout_loss": held})
     text = write_report(sweep).summary.read_text()
-    assert "picks job 0 (model.f_max=0.3 seed=0), NCT median Dice 0.95; the best Dice is job 0's 0.95: 0 lost." in text
-    assert "picks job 3 (model.f_max=3 seed=1), NCT median Dice 0.82; the best Dice is job 2's 0.94: 0.12 lost." in text
+    assert ("- 2 settings of one scene: the truth-free score picks job 0 (model.f_max=0.3 phantom.displacement_deg=100), "
+            "NCT median Dice 0.95; the best Dice is job 0 (model.f_max=0.3 phantom.displacement_deg=100)'s 0.95: 0 lost."
+            ) in text
+    assert ("- 2 settings of one scene: the truth-free score picks job 3 (model.f_max=3 phantom.displacement_deg=150), "
+            "NCT median Dice 0.82; the best Dice is job 2 (model.f_max=0.3 phantom.displacement_deg=150)'s 0.94: "
+            "0.12 lost.") in text
+
+
+def test_truth_free_choice_pools_seeds_as_replicates(tmp_path: Path):
+    """Over seeds 0-2, F_max 3's mean held-out loss is the lowest (0.035 against 0.038), but it
+    spreads over seeds (standard error 0.004): F_max 0.3 is within that error and simpler. Seed 0
+    alone, with its run's own error (0.0005), picks F_max 3. A setting missing a seed is left out."""
+    cases = [(0.3, [0.036, 0.040, 0.038], [0.95, 0.94, 0.96]), (3, [0.028, 0.042, 0.035], [0.83, 0.82, 0.84]),
+             (1, [0.020, 0.020], [0.5, 0.5])]
+    for seeds, picked in (("0,1,2", "jobs 0 1 2 (model.f_max=0.3), NCT median Dice 0.95"),
+                          ("0", "job 3 (model.f_max=3), NCT median Dice 0.83")):
+        sweep = make_sweep(tmp_path / f"s{len(seeds)}", {"model.f_max": "0.3,3,1", "seed": seeds}, [])
+        num = 0
+        for f, losses, dices in cases:
+            for seed, (held, dice) in enumerate(zip(losses, dices)):
+                if str(seed) in seeds.split(",") and not (f == 1 and seeds == "0"):
+                    make_job(sweep, num, [f"model.f_max={f}", f"seed={seed}"],
+                             {"status": "ok", "error": None, "wall_time_s": 1.0},
+                             ok_metrics(dice, 0.8, 1.0) | {"heldout_loss": held, "heldout_se": 0.0005})
+                num += 1
+        text = write_report(sweep).summary.read_text()
+        n_seeds = ", 3 seeds each" if seeds == "0,1,2" else ""
+        assert f"- 2 settings of one scene{n_seeds}: the truth-free score picks {picked}; " in text
 
 
 def test_truth_free_choice_takes_the_simplest_within_one_standard_error(tmp_path: Path):
@@ -173,7 +200,7 @@ def test_truth_free_choice_takes_the_simplest_within_one_standard_error(tmp_path
             make_job(sweep, num, [f"model.f_max={f}"], {"status": "ok", "error": None, "wall_time_s": 1.0},
                      ok_metrics(d, 0.8, 1.0) | {"heldout_loss": held, "heldout_se": se})
         text = write_report(sweep).summary.read_text()
-        assert f"the truth-free score picks {picked}, NCT median Dice {dice}; the best Dice is job 1's 0.95" in text
+        assert f"the truth-free score picks {picked}, NCT median Dice {dice}; the best Dice is job 1 (model.f_max=0.3)'s 0.95" in text
 
 
 def test_optuna_sweep_counts_missing_trials_from_its_jobs(tmp_path: Path):
