@@ -63,10 +63,12 @@ def test_paper_sweeps_match_the_paper(name: str, values: dict, n_jobs: int):
 def test_quick_sweeps_are_small_subsets_of_the_paper_sweeps(name: str):
     full, quick = compose_hydra(f"sweep={name}"), compose_hydra(f"sweep={name}_quick")
     assert quick.hydra.mode.name == "MULTIRUN"
-    assert swept(quick).keys() == swept(full).keys()
-    for key, values in swept(quick).items():
+    settings = {k: v for k, v in swept(quick).items() if k != "seed"}  # seeds: replicates of every setting
+    assert settings.keys() == swept(full).keys() - {"seed"}
+    for key, values in settings.items():
         assert set(values) < set(swept(full)[key]), key
-    assert len(planned_overrides(quick.hydra.sweeper.params, [])) <= 10
+    assert len(swept(quick).get("seed", [0])) >= 2
+    assert len(planned_overrides(quick.hydra.sweeper.params, [])) <= 30
     assert quick.image.size <= 64 and quick.optim.fit_steps <= 500 and not quick.optim.refine
     assert quick.hydra.launcher._target_.endswith("JoblibLauncher")  # one torch thread per job
     assert full.hydra.launcher._target_.endswith("BasicLauncher")  # full sweeps: the user picks
