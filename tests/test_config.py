@@ -40,7 +40,7 @@ def test_method_groups_keep_the_tuned_defaults():
     assert o.coarse_size == 64
     assert (o.lr, o.refine_lr, o.warmup_steps, o.lr_decay, o.lr_decay_every) == (1e-3, 1e-4, 50, 0.65, 100)
     assert (o.batch_views, o.intensity_lr, o.divergence_factor) == (20, 1e-2, 20.0)
-    assert o.refine and o.fit_intensities and o.min_loss == 0.0
+    assert not o.refine and o.fit_intensities and o.min_loss == 0.0
     r = conf.render
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share) == (60, 3, 0.02)

@@ -156,7 +156,7 @@ class OptimConf:
 
     init_steps: int = 300
     fit_steps: int = 1000
-    refine: bool = True
+    refine: bool = False
     refine_init_steps: int = 50
     refine_fit_steps: int = 150
     refine_lr: float = 1e-4
