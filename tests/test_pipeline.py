@@ -9,6 +9,7 @@ import pytest
 import torch
 from skimage.draw import ellipse
 from skimage.transform import radon
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from nct.errors import InputError
 from nct.pipeline import run_job
@@ -168,3 +169,32 @@ def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path
     (tmp_path / "status.json").write_text(json.dumps(read(tmp_path / "status.json") | {"status": "running"}))
     with pytest.raises(InputError, match=r"resume: the checkpoint of stage fit .* does not fit this version's model"):
         run_job(tiny_cfg(*steps, "resume=true"), tmp_path, list(steps))
+
+
+def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_path):
+    """trainer.snapshot_every_n_steps keeps the field every n steps of each stage; after the run each
+    snapshot is scored against the truth (trace.csv, trace.png, TensorBoard). The last snapshot is
+    the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
+    steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false")
+    run_job(tiny_cfg(*steps), tmp_path / "plain")
+    run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
+    np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
+                                  np.load(tmp_path / "plain" / "reconstruction.npz")["nct"])
+    metrics = read(tmp_path / "traced" / "metrics.json")
+    trace = metrics["trace"]
+    assert [(r["stage"], r["step"]) for r in trace] == [("init", s) for s in (0, 2, 4, 6)] + \
+        [("fit", s) for s in (0, 2, 4, 5)]
+    seconds = [r["seconds"] for r in trace]
+    assert all(b > a for a, b in zip(seconds, seconds[1:])) and seconds[-1] < metrics["wall_time_s"]
+    assert trace[-1]["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
+    assert trace[-1]["median_mse"] == pytest.approx(metrics["nct"]["median_mse"], rel=1e-9)
+    assert trace[4]["median_dice"] == trace[3]["median_dice"]  # the fit starts from the init's field
+    assert trace[0]["median_dice"] < trace[-1]["median_dice"]  # random weights against the fitted field
+    rows = (tmp_path / "traced" / "trace.csv").read_text().splitlines()
+    assert rows[0] == "stage,step,seconds,median_dice,median_mse" and len(rows) == 1 + len(trace)
+    assert (tmp_path / "traced" / "trace.png").is_file() and "trace" not in read(tmp_path / "plain" / "metrics.json")
+    acc = EventAccumulator(str(tmp_path / "traced" / "tb"))
+    acc.Reload()
+    logged = acc.Scalars("trace/median_dice")
+    assert [e.step for e in logged] == [round(1000 * t) for t in seconds]
+    assert [e.value for e in logged] == pytest.approx([r["median_dice"] for r in trace], abs=1e-6)

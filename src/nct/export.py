@@ -105,3 +105,18 @@ def save_metric_plot(path: Path, times: np.ndarray, metrics: dict[str, FrameMetr
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def save_trace_plot(path: Path, trace: list[dict], fbp_dice: float) -> None:
+    """The run's Dice-against-time curve: median Dice of each snapshot (``trace.csv`` rows) against
+    seconds into the reconstruction, one colour per stage, FBP's median Dice as a line."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.4))
+    for stage in dict.fromkeys(r["stage"] for r in trace):
+        rows = [r for r in trace if r["stage"] == stage]
+        ax.plot([r["seconds"] for r in rows], [r["median_dice"] for r in rows], marker=".", label=stage)
+    ax.axhline(fbp_dice, color="grey", linestyle="--", label="FBP")
+    ax.set(xlabel="seconds into the reconstruction", ylabel="median Dice", ylim=(0, 1.02))
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

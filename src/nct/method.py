@@ -30,9 +30,21 @@ from nct.sdf import binarise, masks_to_sdf
 from nct.segment import segment
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.stages import LOGGERS, IndexDataModule, InitFit, MinLossStop, SinogramFit, Views, run_stage
+from nct.stages import (LOGGERS, FieldStage, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit, Snapshot,
+                        SnapshotLog, Views, run_stage)
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TracePoint:
+    """The run's frames [F, H, W] (data units) as they stood after ``step`` steps of stage ``stage``,
+    ``seconds`` after ``reconstruct`` began (snapshot copies not counted)."""
+
+    stage: str
+    step: int
+    seconds: float
+    frames: np.ndarray
 
 
 @dataclass
@@ -46,7 +58,7 @@ class NCTResult:
     (``heldout_standard_error``); stages: per stage {steps, losses,
     wall_time_s}; capacity: description of the model; init: how the first SDF frames were
     found (segment.py's route, background and object levels) and the units (normalise.py), in
-    the data's units.
+    the data's units; trace: the field's snapshots (``trainer.snapshot_every_n_steps``) as frames.
     """
 
     frames: np.ndarray
@@ -57,6 +69,8 @@ class NCTResult:
     stages: dict = field(default_factory=dict)
     capacity: dict = field(default_factory=dict)
     init: dict = field(default_factory=dict)
+    trace: list[TracePoint] = field(default_factory=list)
+
 
 
 def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor]:
@@ -105,6 +119,8 @@ class _Problem:
     trainer: TrainerConf
     check_every: int
     resume: bool
+    clock: RunClock
+    snapshots: list[Snapshot]
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
@@ -120,7 +136,8 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
     stages[prefix + "init"] = run_stage(
         init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
-        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, resume=prob.resume)
+        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, _snapshot_log(prob, prefix + "init"),
+        resume=prob.resume)
     started = copy.deepcopy(net.state_dict())
     check = torch.from_numpy(_check_views(prob))
     attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray]] = []
@@ -136,8 +153,8 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
         stages[name] = run_stage(
             fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
-            fit_steps, name, prob.trainer, prob.log_dir, prob.logger, (MinLossStop(optim.min_loss),),
-            prob.check_every, prob.resume)
+            fit_steps, name, prob.trainer, prob.log_dir, prob.logger,
+            (MinLossStop(optim.min_loss), *_snapshot_log(prob, name)), prob.check_every, prob.resume)
         losses = fit.view_losses(check)
         end = float(losses.mean())
         stages[name] |= {"misfit_start": start, "misfit_end": end}
@@ -153,6 +170,12 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         stages[name]["kept"] = name == kept
     net.load_state_dict(state)
     return fit, losses
+
+
+def _snapshot_log(prob: _Problem, name: str) -> tuple[SnapshotLog, ...]:
+    """The snapshot callback of stage ``name``, if the run keeps a trace."""
+    every = prob.trainer.snapshot_every_n_steps
+    return (SnapshotLog(name, every, prob.snapshots, prob.clock),) if every else ()
 
 
 def _check_views(prob: _Problem, most: int = 64) -> np.ndarray:
@@ -218,6 +241,7 @@ def reconstruct(
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+    run_clock = RunClock()
     L.seed_everything(seed, verbose=False)
     rng = np.random.default_rng(seed)
     clock = rotations_since_start(sino)
@@ -244,7 +268,7 @@ def reconstruct(
     seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
     targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
-                    heldout.check_every, resume)
+                    heldout.check_every, resume, run_clock, [])
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray]] = {}
@@ -277,9 +301,15 @@ def reconstruct(
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, stages)
 
+    final_state = copy.deepcopy(net.state_dict())
+    trace = []
+    for snap in prob.snapshots:
+        snap.stage.field.load_state_dict(snap.state)
+        trace.append(TracePoint(snap.name, snap.step, snap.seconds,
+                                _frames(snap.stage, clock(frame_times), render, grid)[0] * units.intensity))
+    net.load_state_dict(final_state)
+    frames, sdf = _frames(fit, clock(frame_times), render, grid)
     amplitudes = net.intensities.detach().cpu()
-    sdf = field_frames(fit, clock(frame_times))
-    frames = intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
     described["objects"] = {"static_below_px": capacity.static_below_px, "per_object": objects}
@@ -295,7 +325,16 @@ def reconstruct(
                      init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels,
                            "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
                            "levels": [float(a) * units.intensity for a in seg.intensities],
-                           "length_unit": units.length, "intensity_unit": units.intensity})
+                           "length_unit": units.length, "intensity_unit": units.intensity},
+                     trace=trace)
+
+
+def _frames(stage: FieldStage, times: torch.Tensor, render: RenderConf, grid: ImageGrid) -> tuple[np.ndarray, np.ndarray]:
+    """Algorithm 6 on the stage's field at ``times`` [F]: intensity frames [F, H, W] and SDF frames
+    [F, K, H, W], in the method's units."""
+    sdf = field_frames(stage, times)
+    amplitudes = stage.field.intensities.detach().cpu()
+    return intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy(), sdf
 
 
 def _stream(rng: np.random.Generator) -> int:

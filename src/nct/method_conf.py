@@ -116,7 +116,9 @@ class TrainerConf:
 
     accelerator, devices: passed to Lightning. progress_bar: a bar per stage; None shows it when
     stdout is a terminal (otherwise one log line per stage). log_every_n_steps: scalars;
-    image_every_n_steps: frame and residual images in TensorBoard.
+    image_every_n_steps: frame and residual images in TensorBoard. snapshot_every_n_steps: keep
+    the field every this many steps of each stage and score it after the run, the points of the
+    run's Dice-against-time curve (``trace.csv``, ``trace.png``; 0: none).
     """
 
     name: str = "cpu"
@@ -125,10 +127,13 @@ class TrainerConf:
     progress_bar: bool | None = None
     log_every_n_steps: int = 10
     image_every_n_steps: int = 200
+    snapshot_every_n_steps: int = 0
 
     def __post_init__(self) -> None:
         for key in ("devices", "log_every_n_steps", "image_every_n_steps"):
             require(getattr(self, key) >= 1, f"trainer.{key}", ">= 1", getattr(self, key))
+        require(self.snapshot_every_n_steps >= 0, "trainer.snapshot_every_n_steps", ">= 0 (0: no curve)",
+                self.snapshot_every_n_steps)
 
 
 @dataclass

@@ -27,7 +27,8 @@ from nct.projector import fbp_frames
 from nct.scanner import ImageGrid
 from nct.simulate import simulate
 from nct.sinogram import Sinogram
-from nct.tracking import run_hparams, write_capacity, write_frames, write_hparams
+from nct.tables import write_csv
+from nct.tracking import run_hparams, write_capacity, write_frames, write_hparams, write_trace
 
 log = logging.getLogger(__name__)
 
@@ -65,10 +66,12 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     return Acquisition(sino, grid, frame_times, len(phantom.intensities))
 
 
-def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict]:
-    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name and extra metrics."""
+def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict, list]:
+    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, extra metrics
+    and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
     extra: dict = {}
+    trace: list = []
     if conf.method == "nct":
         from nct.method import reconstruct
 
@@ -82,7 +85,8 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
         frames["nct"] = result.frames
         extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "capacity": result.capacity,
                  "stages": result.stages, "intensities": [float(a) for a in result.intensities], "init": result.init}
-    return frames, extra
+        trace = result.trace
+    return frames, extra, trace
 
 
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
@@ -97,16 +101,32 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
     t0 = time.perf_counter()
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
-    frames, extra = reconstruct_all(conf, acq, out_dir)
+    frames, extra, trace = reconstruct_all(conf, acq, out_dir)
     result: dict = {"times": acq.frame_times.tolist(), **extra}
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
         truth = acq.sino.truth
         scored = {name: frame_metrics(f, truth.frames, truth.level) for name, f in frames.items()}
         result.update({name: summarise(m) for name, m in scored.items()})
+        if trace:
+            result["trace"] = score_trace(trace, truth.frames, truth.level)
+    elif trace:
+        log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
+                    "Dice-against-time curve")
     result["wall_time_s"] = time.perf_counter() - t0
     write_outputs(conf, cfg, acq, frames, scored, result, out_dir)
     return result
+
+
+def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
+    """Each ``method.TracePoint``'s stage, step, seconds and median Dice and MSE against ``truth``
+    [F, H, W]: the rows of ``trace.csv``."""
+    rows = []
+    for point in trace:
+        s = summarise(frame_metrics(point.frames, truth, level))
+        rows.append({"stage": point.stage, "step": point.step, "seconds": point.seconds,
+                     "median_dice": s["median_dice"], "median_mse": s["median_mse"]})
+    return rows
 
 
 def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
@@ -120,6 +140,10 @@ def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict
         export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames)
         if scored:
             export.save_metric_plot(out_dir / "metrics.png", acq.frame_times, scored)
+        if "trace" in result:
+            export.save_trace_plot(out_dir / "trace.png", result["trace"], result["fbp"]["median_dice"])
+    if "trace" in result:
+        write_csv(result["trace"], out_dir / "trace.csv")
     if conf.export.gif:
         export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps)
     if conf.logger.name == "tensorboard":
@@ -130,6 +154,8 @@ def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict
         if capacity:
             final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
             write_capacity(out_dir / "tb", capacity)
+        if "trace" in result:
+            write_trace(out_dir / "tb", result["trace"])
         overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
         write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
         write_frames(out_dir / "tb", shown)

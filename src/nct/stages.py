@@ -281,6 +281,53 @@ class MinLossStop(Callback):
             trainer.should_stop = True
 
 
+class RunClock:
+    """Seconds since a run began, less the time spent taking snapshots (``SnapshotLog``)."""
+
+    def __init__(self) -> None:
+        self.start, self.paused = time.perf_counter(), 0.0
+
+    def seconds(self) -> float:
+        return time.perf_counter() - self.start - self.paused
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The field's weights after ``step`` steps of ``stage`` (its module), ``seconds`` into the run."""
+
+    name: str
+    step: int
+    seconds: float
+    stage: FieldStage
+    state: dict[str, Tensor]
+
+
+class SnapshotLog(Callback):
+    """Copy the stage's field into ``into`` before its first step, every ``every`` steps and after
+    its last: the points of a run's Dice-against-time curve, scored once the run is over (no stage
+    sees the truth). The copies' own time is left out of ``clock``."""
+
+    def __init__(self, name: str, every: int, into: list[Snapshot], clock: RunClock) -> None:
+        self.name, self.every, self.into, self.clock = name, every, into, clock
+
+    def take(self, trainer, pl_module: FieldStage) -> None:
+        start = time.perf_counter()
+        state = {k: v.detach().clone() for k, v in pl_module.field.state_dict().items()}
+        self.into.append(Snapshot(self.name, int(trainer.global_step), self.clock.seconds(), pl_module, state))
+        self.clock.paused += time.perf_counter() - start
+
+    def on_train_start(self, trainer, pl_module) -> None:
+        self.take(trainer, pl_module)
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        if trainer.global_step % self.every == 0:
+            self.take(trainer, pl_module)
+
+    def on_train_end(self, trainer, pl_module) -> None:
+        if self.into[-1].step != trainer.global_step:
+            self.take(trainer, pl_module)
+
+
 class DivergenceCheck(Callback):
     """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss.
     Checked on the Trainer's logging steps and the last: reading a loss makes the host wait for

@@ -91,3 +91,13 @@ def write_capacity(tb_dir: Path, capacity: dict) -> None:
             for rung in choice["ladder"]:
                 w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
         w.add_text("capacity", "\n".join(lines))
+
+
+def write_trace(tb_dir: Path, trace: list[dict]) -> None:
+    """The Dice-against-time curve as ``trace/median_dice`` and ``trace/median_mse`` scalars whose
+    step is the snapshot's time into the reconstruction in milliseconds (TensorBoard's STEP axis)."""
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        for row in trace:
+            ms = round(1000 * row["seconds"])
+            w.add_scalar("trace/median_dice", row["median_dice"], global_step=ms)
+            w.add_scalar("trace/median_mse", row["median_mse"], global_step=ms)
