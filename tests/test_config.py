@@ -3,6 +3,7 @@
 import subprocess
 import sys
 from importlib.resources import files
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -46,6 +47,14 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share) == (60, 3, 0.02)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
+
+
+def test_fast_optim_halves_every_stage_and_its_schedule():
+    """optim=fast is the measured half-steps candidate: steps, warm-up and decay interval halved, the rest as the default."""
+    default, fast = (validate(compose_config(o)).optim for o in ([], ["optim=fast"]))
+    halved = ("init_steps", "fit_steps", "warmup_steps", "lr_decay_every")
+    assert all(getattr(fast, k) * 2 == getattr(default, k) for k in halved)
+    assert replace(fast, **{k: getattr(default, k) for k in halved}) == default
 
 
 def test_groups_switch():
