@@ -105,3 +105,19 @@ def test_an_object_inside_a_dimmer_one_adds_to_it():
     apart = np.stack([0.5 * (x**2 + y**2 < 0.15**2) + 1.5 * ((x - 0.3) ** 2 + y**2 < 0.08**2)] * 4).astype(np.float32)
     np.testing.assert_allclose(np.sort(segment(apart, 2, np.random.default_rng(0), route="otsu").intensities),
                                [0.5, 1.5], atol=0.05)
+
+
+def test_one_dimensional_labels_are_those_of_the_mixture():
+    """predict_1d (used for the million pixels of a run) labels as GaussianMixture.predict does,
+    chunked or not, on overlapping classes where the boundaries matter."""
+    from sklearn.mixture import GaussianMixture
+
+    from nct.segment import predict_1d
+
+    images, _ = two_object_frames(noise=0.2)
+    values = images.reshape(-1)
+    gmm = GaussianMixture(6, n_init=2, random_state=0).fit(values[::3, None].astype(np.float64))
+    expected = gmm.predict(values[:, None].astype(np.float64))
+    assert len(np.unique(expected)) >= 4
+    np.testing.assert_array_equal(predict_1d(gmm, values), expected)
+    np.testing.assert_array_equal(predict_1d(gmm, values, chunk=1000), expected)
