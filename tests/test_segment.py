@@ -121,3 +121,17 @@ def test_one_dimensional_labels_are_those_of_the_mixture():
     assert len(np.unique(expected)) >= 4
     np.testing.assert_array_equal(predict_1d(gmm, values), expected)
     np.testing.assert_array_equal(predict_1d(gmm, values, chunk=1000), expected)
+
+
+def test_each_candidate_is_judged_once():
+    """With a judge, Algorithm 1's pick and the other choices of classes are each judged once: no
+    two judged segmentations hold the same masks."""
+    images, _ = two_object_frames()
+    judged: list[bytes] = []
+
+    def judge(masks):
+        judged.append(np.sort([m.tobytes() for m in masks.transpose(1, 0, 2, 3)]).tobytes())
+        return float(len(judged)), np.ones(masks.shape[1])
+
+    segment(images, 2, np.random.default_rng(0), share=0.1, judge=judge)
+    assert len(judged) >= 2 and len(set(judged)) == len(judged)

@@ -99,8 +99,10 @@ def segment(
                                 "brighter than the background in the FBP frames (init.route=auto falls back to Otsu)")
         if levels is not None:
             candidates.append(("gmm", 0.0, frames, levels))
-        if judge is not None:
-            candidates += [("gmm", 0.0, frames, c) for c in class_choices(classes, n_objects)]
+        if judge is not None:  # Algorithm 1's own pick is one of the choices: judged once, in its order
+            picked = None if levels is None else sorted(levels[1:])
+            candidates += [("gmm", 0.0, frames, c) for c in class_choices(classes, n_objects)
+                           if sorted(c[1:]) != picked]
     if route == "otsu" or judge is not None or not candidates:
         try:
             smooth, px, noise = smoothed_until_found(frames, n_objects)
