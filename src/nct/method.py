@@ -292,6 +292,7 @@ def reconstruct(
     if chosen.n_terms and static.any():
         net.set_static(torch.from_numpy(static), float(prob.init_times.mean()))
         masks[:, static] = masks[:, static].mean(axis=0) > 0.5
+        checked = fit.view_losses(torch.from_numpy(_check_views(prob)))  # the held-out score of what is output
 
     if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
