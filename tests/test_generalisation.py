@@ -4,6 +4,7 @@ that nct's loader and FBP read right in unit field of view, cm and mm; its accep
 a failed NeuralCT run as Dice 0."""
 
 import importlib.util
+import json
 import math
 import sys
 from pathlib import Path
@@ -16,6 +17,7 @@ from nct.io import load_sinogram
 from nct.metrics import dice
 from nct.projector import fbp_frames
 from nct.scanner import ImageGrid
+from nct.segment import segment
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -145,3 +147,22 @@ def test_own_level_of_a_nested_object_adds_its_containers():
     assert levels == pytest.approx({1: 0.2 + 0.25, 2: 0.2 + 0.5 + 0.5})
     single = S.Scene(scene.index, scene.units, scene.extent, (body,), "single", scene.acquisition, None)
     assert single.own_levels() == {}
+
+
+def test_init_candidates_sees_what_the_run_segments(tmp_path):
+    """benchmarks/init_candidates.py stops the run where it segments: its judged choice has the a(k)
+    that a full run records as its initial levels (metrics.json -> init -> levels)."""
+    from nct.pipeline import run_job
+    from conftest import compose_config
+
+    objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]
+    path = S.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
+    overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
+                 "export.tiff=false", "export.png=false"]
+    frames, k, rng, kappa, share, route, judge = load("init_candidates").segmentation_inputs(path, 2, overrides)
+    assert frames.ndim == 3 and k == 2 and judge is not None
+    chosen = segment(frames, k, rng, kappa, share, route, judge)
+    run_job(compose_config(["data=file", f"data.path={path}", "data.n_objects=2", *overrides]), tmp_path / "run")
+    init = json.loads((tmp_path / "run" / "metrics.json").read_text())["init"]
+    np.testing.assert_allclose(np.asarray(chosen.intensities) * init["intensity_unit"], init["levels"], rtol=1e-6)
+    assert sorted(init["levels"]) == pytest.approx([0.6, 1.5], rel=0.1)

@@ -1,0 +1,84 @@
+"""What the initialisation saw in a sinogram file: Algorithm 1's mixture classes and every candidate
+the sinogram judge scored (``init.levels=sinogram``), with the choice the run makes.
+
+A diagnostic for a scene whose objects start wrong (benchmarks/results/generalisation/seed1:
+scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct``
+is called and stopped where it hands them to the segmentation, so nothing here re-derives them.
+Levels and a(k) are in the method's units: times the run's ``init.intensity_unit``
+(metrics.json) for the data's.
+
+    python benchmarks/init_candidates.py outputs/benchmarks/gen_seed1/scenes/scene011.npz --n-objects 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from hydra import compose, initialize_config_module
+
+import nct.method
+from nct import segment as seg
+from nct.cli import CONFIG_MODULE
+from nct.config import validate
+from nct.pipeline import acquire, reconstruct_all
+
+
+class _Caught(Exception):
+    """Carries segment()'s arguments out of reconstruct()."""
+
+    def __init__(self, args: tuple, kwargs: dict) -> None:
+        super().__init__("segmentation reached")
+        self.args_, self.kwargs = args, kwargs
+
+
+def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tuple:
+    """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and judge."""
+    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+        cfg = compose(config_name="config",
+                      overrides=["data=file", f"data.path={path}", f"data.n_objects={n_objects}", *overrides])
+    conf = validate(cfg)
+    acq = acquire(conf, np.random.default_rng(conf.seed))
+
+    def catch(*args, **kwargs):
+        raise _Caught(args, kwargs)
+
+    real = nct.method.segment
+    nct.method.segment = catch
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            reconstruct_all(conf, acq, Path(tmp))
+    except _Caught as caught:
+        frames, k, rng, kappa, share, route, judge = caught.args_
+    finally:
+        nct.method.segment = real
+    return frames, k, rng, kappa, share, route, judge
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("path", type=Path, help="a sinogram file (.npz, the documented format)")
+    parser.add_argument("--n-objects", type=int, default=1, help="data.n_objects (K)")
+    parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="an nct override")
+    args = parser.parse_args()
+    frames, k, rng, kappa, share, route, judge = segmentation_inputs(args.path, args.n_objects, args.override)
+    classes = seg.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
+    print(f"mixture classes (method units): means {np.round(classes.means, 3)}, spread {np.round(classes.spread, 3)}, "
+          f"pixels {classes.count}, background class {classes.background}, foreground from {classes.lowest:.3f}")
+    picked = seg.algorithm1_levels(classes, k)
+    print("Algorithm 1's rule:", "fewer than K levels" if picked is None else np.round(picked, 3))
+    if judge is not None:
+        for levels in seg.class_choices(classes, k):
+            masks, _ = seg.nest(seg.assign(frames, levels), levels)
+            misfit, a = judge(masks)
+            print(f"  classes {np.round(levels[1:], 3)}: judge misfit {misfit:.4f}, a(k) {np.round(a, 3)}, "
+                  f"pixels per frame {np.round(masks.sum(axis=(0, 2, 3)) / len(masks), 1)}")
+    chosen = seg.segment(frames, k, rng, kappa, share, route, judge)
+    print(f"chosen: route {chosen.route}, a(k) {np.round(chosen.intensities, 3)}, judge misfit {chosen.misfit}")
+
+
+if __name__ == "__main__":
+    main()
