@@ -59,14 +59,14 @@ def test_bad_settings_are_named(kwargs, message):
         CapacityConf(**kwargs)
 
 
-def choose(phantom_conf, seed: int = 0):
+def choose(phantom_conf, seed: int = 0, capacity: CapacityConf = AUTO):
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
     phantom = build_phantom(phantom_conf, scanner.rotation_time)
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(seed))
     n_objects = len(phantom.intensities)
     result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
-                         n_objects=n_objects, capacity=AUTO, optim=OPTIM)
+                         n_objects=n_objects, capacity=capacity, optim=OPTIM)
     return result, float(np.median(frame_metrics(result.frames, sino.truth.frames, sino.truth.level).dice))
 
 
@@ -87,6 +87,18 @@ def test_moving_scene_gets_temporal_terms():
     assert ladder[1]["heldout_loss"] < 0.5 * ladder[0]["heldout_loss"]  # static cannot explain the motion
     assert set(result.stages) >= {"m0_init", "m0_fit", "m8_init", "m8_fit"}
     assert dice > 0.85
+
+
+def test_default_holds_static_objects_static_and_moving_ones_temporal():
+    """The default capacity (fixed terms, static below 0.25 px): the static experiment's objects end
+    static, the moving circle keeps its temporal terms; both reconstruct well."""
+    still, dice_still = choose(StaticConf(), capacity=CapacityConf())
+    objects = still.capacity["objects"]["per_object"]
+    assert [o["model"] for o in objects] == ["static"] * len(objects) and len(objects) == 2
+    assert max(o["motion_px"] for o in objects) < 0.25 and still.capacity["static"]
+    moving, dice_moving = choose(CircleConf(displacement_deg=100.0), capacity=CapacityConf())
+    assert [o["model"] for o in moving.capacity["objects"]["per_object"]] == ["temporal"]
+    assert not moving.capacity["static"] and dice_still > 0.97 and dice_moving > 0.85
 
 
 def discs(centres_x: list[float], radii: list[float], size: int = 96) -> np.ndarray:

@@ -10,6 +10,7 @@ from tensorboard.plugins import base_plugin
 from tensorboard.plugins.hparams import api_pb2, backend_context, plugin_data_pb2
 
 from nct.pipeline import run_job
+from nct.tables import fmt
 from nct.tracking import run_hparams
 
 IDENTITY = {"method", "data.name", "phantom.name", "model.name", "seed"}
@@ -105,6 +106,8 @@ def test_capacity_choice_is_in_metrics_and_tensorboard(tiny_cfg, run_dir):
     text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
     assert capacity["choice"]["reason"] in text and "grid field" in text
     assert "| terms | held-out loss | parameters |\n|---|---|---|\n| 0 | " in text
+    obj = capacity["objects"]["per_object"][0]
+    assert f"object 0: boundary motion {fmt(obj['motion_px'])} px after the fit: {obj['model']}" in text
 
 
 def test_stages_log_previews_residuals_and_heldout_validation(tiny_cfg, run_dir):
