@@ -175,7 +175,8 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     """trainer.snapshot_every_n_steps keeps the field every n steps of each stage; after the run each
     snapshot is scored against the truth (trace.csv, trace.png, TensorBoard). The last snapshot is
     the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
-    steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false")
+    steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false",
+             "capacity.static_below_px=0")
     run_job(tiny_cfg(*steps), tmp_path / "plain")
     run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
     np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
@@ -198,3 +199,17 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     logged = acc.Scalars("trace/median_dice")
     assert [e.step for e in logged] == [round(1000 * t) for t in seconds]
     assert [e.value for e in logged] == pytest.approx([r["median_dice"] for r in trace], abs=1e-6)
+
+
+def test_trace_ends_with_the_output_when_objects_are_made_static(tiny_cfg, tmp_path):
+    """The static experiment's objects are held static after the fit (capacity.static_below_px): the
+    trace gains a last point for that field, which is the one output."""
+    run_job(tiny_cfg("experiment=static", "optim.init_steps=80", "optim.fit_steps=80",
+                     "trainer.snapshot_every_n_steps=40", "logger=none", "export.gif=false", "export.tiff=false",
+                     "export.png=false"), tmp_path)
+    metrics = read(tmp_path / "metrics.json")
+    assert metrics["capacity"]["static"] and "fit_retry1" not in metrics["stages"]
+    *_, fitted, output = metrics["trace"]
+    assert (fitted["stage"], output["stage"]) == ("fit", "output") and output["step"] == fitted["step"] == 80
+    assert output["seconds"] >= fitted["seconds"]
+    assert output["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)

@@ -31,7 +31,7 @@ from nct.segment import segment
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.stages import (LOGGERS, FieldStage, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit, Snapshot,
-                        SnapshotLog, Views, run_stage)
+                        SnapshotLog, Views, run_stage, snapshot)
 
 log = logging.getLogger(__name__)
 
@@ -178,6 +178,11 @@ def _snapshot_log(prob: _Problem, name: str) -> tuple[SnapshotLog, ...]:
     return (SnapshotLog(name, every, prob.snapshots, prob.clock),) if every else ()
 
 
+def _same_state(a: dict[str, torch.Tensor], b: dict[str, torch.Tensor]) -> bool:
+    """Whether two state dicts hold the same keys and values."""
+    return a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+
 def _check_views(prob: _Problem, most: int = 64) -> np.ndarray:
     """The views that judge whether a fit went astray: the held-out ones, or up to ``most`` fitted ones."""
     if len(prob.held_views):
@@ -293,6 +298,10 @@ def reconstruct(
         net.set_static(torch.from_numpy(static), float(prob.init_times.mean()))
         masks[:, static] = masks[:, static].mean(axis=0) > 0.5
         checked = fit.view_losses(torch.from_numpy(_check_views(prob)))  # the held-out score of what is output
+
+    if prob.snapshots and not _same_state(prob.snapshots[-1].state, net.state_dict()):
+        # Objects made static, or an earlier attempt kept: the curve ends with the field that is output.
+        prob.snapshots.append(snapshot("output", prob.snapshots[-1].step, fit, prob.clock))
 
     if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
