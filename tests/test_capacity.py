@@ -89,14 +89,15 @@ def test_moving_scene_gets_temporal_terms():
     assert dice > 0.85
 
 
-def test_default_holds_static_objects_static_and_moving_ones_temporal():
-    """The default capacity (fixed terms, static below 0.25 px): the static experiment's objects end
-    static, the moving circle keeps its temporal terms; both reconstruct well."""
-    still, dice_still = choose(StaticConf(), capacity=CapacityConf())
+def test_static_switch_holds_static_objects_static_and_moving_ones_temporal():
+    """capacity.static_below_px=0.25 (fixed terms): the static experiment's objects end static, the
+    moving circle keeps its temporal terms; both reconstruct well."""
+    switch = CapacityConf(static_below_px=0.25)
+    still, dice_still = choose(StaticConf(), capacity=switch)
     objects = still.capacity["objects"]["per_object"]
     assert [o["model"] for o in objects] == ["static"] * len(objects) and len(objects) == 2
     assert max(o["motion_px"] for o in objects) < 0.25 and still.capacity["static"]
-    moving, dice_moving = choose(CircleConf(displacement_deg=100.0), capacity=CapacityConf())
+    moving, dice_moving = choose(CircleConf(displacement_deg=100.0), capacity=switch)
     assert [o["model"] for o in moving.capacity["objects"]["per_object"]] == ["temporal"]
     assert not moving.capacity["static"] and dice_still > 0.97 and dice_moving > 0.85
 

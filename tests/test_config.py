@@ -47,7 +47,7 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share) == (60, 3, 0.02)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
-    assert not conf.capacity.auto and conf.capacity.static_below_px == 0.25
+    assert not conf.capacity.auto and conf.capacity.static_below_px == 0.0
 
 
 def test_fast_optim_halves_every_stage_and_its_schedule():

@@ -204,7 +204,7 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
 def test_trace_ends_with_the_output_when_objects_are_made_static(tiny_cfg, tmp_path):
     """The static experiment's objects are held static after the fit (capacity.static_below_px): the
     trace gains a last point for that field, which is the one output."""
-    run_job(tiny_cfg("experiment=static", "optim.init_steps=80", "optim.fit_steps=80",
+    run_job(tiny_cfg("experiment=static", "capacity.static_below_px=0.25", "optim.init_steps=80", "optim.fit_steps=80",
                      "trainer.snapshot_every_n_steps=40", "logger=none", "export.gif=false", "export.tiff=false",
                      "export.png=false"), tmp_path)
     metrics = read(tmp_path / "metrics.json")

@@ -7,9 +7,10 @@ ever sees. Climbing stops at the first rung that does not improve on the one bel
 
 Per object, after the first pass, each object's boundary motion is measured (`boundary_motion_px`:
 a fitted static object moves a few hundredths of a pixel, a moving one pixels); an object moving
-less than ``static_below_px`` (default 0.25) gets a static model for the rest of the run, so a
-static body beside a moving vessel holds no temporal terms. This costs no fit; on 40 generalisation
-scenes with static objects it changed Dice by -0.003 to +0.005 (benchmarks/results/capacity).
+less than ``static_below_px`` (e.g. 0.25) gets a static model for the rest of the run, so a
+static body beside a moving vessel holds no temporal terms. This costs no fit. Off by default:
+the boundary motion of some moving objects reads as low as 0.17-0.25 px, that of a static one up
+to 0.26 px, and freezing such a moving object cost up to 0.036 Dice (benchmarks/results/capacity).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ class CapacityConf:
     auto: bool = False
     ladder: list[int] = field(default_factory=lambda: [0, 8, 32])
     tolerance: float = 0.05
-    static_below_px: float = 0.25
+    static_below_px: float = 0.0
 
     def __post_init__(self) -> None:
         require(len(self.ladder) >= 1, "capacity.ladder", "a non-empty list of term counts", self.ladder)
