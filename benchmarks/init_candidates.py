@@ -24,6 +24,7 @@ import nct.method
 from nct import segment as seg
 from nct.cli import CONFIG_MODULE
 from nct.config import validate
+from nct.errors import InputError, MethodError
 from nct.pipeline import acquire, reconstruct_all
 
 
@@ -64,7 +65,10 @@ def main() -> None:
     parser.add_argument("--n-objects", type=int, default=1, help="data.n_objects (K)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="an nct override")
     args = parser.parse_args()
-    frames, k, rng, kappa, share, route, judge = segmentation_inputs(args.path, args.n_objects, args.override)
+    try:
+        frames, k, rng, kappa, share, route, judge = segmentation_inputs(args.path, args.n_objects, args.override)
+    except (InputError, MethodError) as err:  # a bad file or value, or no object: one line, as nct says it
+        parser.exit(2, f"init_candidates: error: {err}\n")
     classes = seg.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
     print(f"mixture classes (method units): means {np.round(classes.means, 3)}, spread {np.round(classes.spread, 3)}, "
           f"pixels {classes.count}, background class {classes.background}, foreground from {classes.lowest:.3f}")

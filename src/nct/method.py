@@ -72,7 +72,6 @@ class NCTResult:
     trace: list[TracePoint] = field(default_factory=list)
 
 
-
 def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor]:
     """Map seconds to gantry rotations since the first view, from the views' angles and times."""
     span_t = float(np.ptp(sino.times))
@@ -299,10 +298,6 @@ def reconstruct(
         masks[:, static] = masks[:, static].mean(axis=0) > 0.5
         checked = fit.view_losses(torch.from_numpy(_check_views(prob)))  # the held-out score of what is output
 
-    if prob.snapshots and not _same_state(prob.snapshots[-1].state, net.state_dict()):
-        # Objects made static, or an earlier attempt kept: the curve ends with the field that is output.
-        prob.snapshots.append(snapshot("output", prob.snapshots[-1].step, fit, prob.clock))
-
     if optim.refine:
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
@@ -311,13 +306,7 @@ def reconstruct(
                         replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
                         targets, stages)
 
-    final_state = copy.deepcopy(net.state_dict())
-    trace = []
-    for snap in prob.snapshots:
-        snap.stage.field.load_state_dict(snap.state)
-        trace.append(TracePoint(snap.name, snap.step, snap.seconds,
-                                _frames(snap.stage, clock(frame_times), render, grid)[0] * units.intensity))
-    net.load_state_dict(final_state)
+    trace = _trace(prob, fit, clock(frame_times), render, grid, units.intensity)
     frames, sdf = _frames(fit, clock(frame_times), render, grid)
     amplitudes = net.intensities.detach().cpu()
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
@@ -337,6 +326,26 @@ def reconstruct(
                            "levels": [float(a) * units.intensity for a in seg.intensities],
                            "length_unit": units.length, "intensity_unit": units.intensity},
                      trace=trace)
+
+
+def _trace(prob: _Problem, fit: SinogramFit, times: torch.Tensor, render: RenderConf, grid: ImageGrid,
+           intensity_unit: float) -> list[TracePoint]:
+    """The run's snapshots rendered at ``times`` [F] (frames in data units), ending with the field of
+    ``fit`` that is output where it differs from the last snapshot (objects made static, an earlier
+    attempt kept); ``fit``'s field is left as it was."""
+    if not prob.snapshots:
+        return []
+    out = fit.field.state_dict()
+    if not _same_state(prob.snapshots[-1].state, out):
+        prob.snapshots.append(snapshot("output", prob.snapshots[-1].step, fit, prob.clock))
+    output = prob.snapshots[-1].state
+    trace = []
+    for snap in prob.snapshots:
+        snap.stage.field.load_state_dict(snap.state)
+        trace.append(TracePoint(snap.name, snap.step, snap.seconds,
+                                _frames(snap.stage, times, render, grid)[0] * intensity_unit))
+    fit.field.load_state_dict(output)
+    return trace
 
 
 def _frames(stage: FieldStage, times: torch.Tensor, render: RenderConf, grid: ImageGrid) -> tuple[np.ndarray, np.ndarray]:
