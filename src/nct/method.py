@@ -27,7 +27,7 @@ from nct.projector import fbp_frames
 from nct.render import intensity
 from nct.scanner import ImageGrid
 from nct.sdf import binarise, masks_to_sdf
-from nct.segment import segment
+from nct.segment import Segmentation, segmentations
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.stages import (LOGGERS, FieldStage, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit, Snapshot,
@@ -120,33 +120,59 @@ class _Problem:
     resume: bool
     clock: RunClock
     snapshots: list[Snapshot]
+    starts_rng: np.random.Generator
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where a pass may start: InitFit's SDF ``targets`` [F, K, H, W] and a(k) ``intensities`` [K]
+    (None: the field's own)."""
+
+    targets: np.ndarray
+    intensities: np.ndarray | None = None
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
-              render: RenderConf, targets: np.ndarray, stages: dict,
-              lattice: int | None = None) -> tuple[SinogramFit, np.ndarray]:
-    """One pass: InitFit to SDF ``targets`` then SinogramFit, the field on a ``lattice``^2 lattice
-    (None: the grid's); records the stages in ``stages``. A SinogramFit whose misfit ends above
-    where it started is rerun from the InitFit's field at half the rates (``optim.retries``) and
-    the attempt with the lowest misfit kept. Returns the fit and its misfit on each of the
-    ``_check_views`` [c]."""
+              render: RenderConf, starts: list[Start], stages: dict,
+              lattice: int | None = None) -> tuple[SinogramFit, np.ndarray, int]:
+    """One pass: InitFit to each start's SDF targets, then SinogramFit from the start whose field
+    misfits the ``_check_views`` least, the field on a ``lattice``^2 lattice (None: the grid's);
+    records the stages in ``stages``. A SinogramFit whose misfit ends above where it started is
+    rerun from the InitFit's field at half the rates (``optim.retries``) and the attempt with the
+    lowest misfit kept. Returns the fit, its misfit on each check view [c] and the start's index."""
     init_steps, fit_steps = steps
-    n_init = prob.init_times.shape[0]
-    init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(targets), prob.init_times, lattice)
-    stages[prefix + "init"] = run_stage(
-        init, IndexDataModule(np.arange(n_init), optim.batch_views, init_steps, _stream(prob.rng)),
-        init_steps, prefix + "init", prob.trainer, prob.log_dir, prob.logger, _snapshot_log(prob, prefix + "init"),
-        resume=prob.resume)
-    started = copy.deepcopy(net.state_dict())
     check = torch.from_numpy(_check_views(prob))
-    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray]] = []
 
     def sinogram_fit(rate: float) -> SinogramFit:
         return SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
                            render, prob.loss, prob.views, fit_steps, lattice)
 
-    fit = sinogram_fit(1.0)
-    start = float(fit.view_losses(check).mean())
+    weights = copy.deepcopy(net.state_dict())
+    tried: list[tuple[float, dict, SinogramFit]] = []
+    for n, begin in enumerate(starts):
+        name = prefix + "init" + (f"_start{n}" if n else "")
+        net.load_state_dict(weights)
+        if begin.intensities is not None:
+            net.set_intensities(torch.tensor(begin.intensities, dtype=torch.float32))
+        init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(begin.targets), prob.init_times, lattice)
+        with torch.random.fork_rng(enabled=n > 0):  # further starts leave every random stream as the first left it
+            stages[name] = run_stage(
+                init, IndexDataModule(np.arange(prob.init_times.shape[0]), optim.batch_views, init_steps,
+                                      _stream(prob.starts_rng if n else prob.rng)),
+                init_steps, name, prob.trainer, prob.log_dir, prob.logger, _snapshot_log(prob, name), resume=prob.resume)
+        fit = sinogram_fit(1.0)
+        misfit = float(fit.view_losses(check).mean())
+        stages[name]["misfit"] = misfit
+        tried.append((misfit, copy.deepcopy(net.state_dict()), fit))
+    chosen = min(range(len(tried)), key=lambda n: tried[n][0])
+    start, started, fit = tried[chosen]
+    for n in range(len(tried)):
+        stages[prefix + "init" + (f"_start{n}" if n else "")]["kept"] = n == chosen
+    if len(tried) > 1:
+        log.info("%sinit: started from candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
+                 ", ".join(f"{m:.4g}" for m, _, _ in tried))
+    net.load_state_dict(started)
+    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray]] = []
     for attempt in range(optim.retries + 1):
         fit = sinogram_fit(0.5**attempt) if attempt else fit
         name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
@@ -168,7 +194,15 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     for _, _, name, _, _ in attempts:
         stages[name]["kept"] = name == kept
     net.load_state_dict(state)
-    return fit, losses
+    return fit, losses, chosen
+
+
+def candidate_starts(ranked: list[Segmentation], n_objects: int, most: int) -> list[Segmentation]:
+    """The segmentations InitFit tries (``init.starts``), best judged first. One object starts on
+    the brightest structure whichever candidate wins, and the fit moves its boundary; with
+    several, a candidate can hand an object to the background or split one object in two, and the
+    fit cannot create an object no field starts on: there the judge's runners-up are tried too."""
+    return ranked[:most] if n_objects > 1 else ranked[:1]
 
 
 def _snapshot_log(prob: _Problem, name: str) -> tuple[SnapshotLog, ...]:
@@ -269,26 +303,29 @@ def reconstruct(
         fitted = torch.from_numpy(fit_views)
         judge = sinogram_judge(clock(init_times), views.values[fitted], views.angles[fitted], views.times[fitted],
                                views.geometry, grid.extent)
-    seg = segment(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
-    targets = masks_to_sdf(seg.masks, grid.pixel_size, workers=torch.get_num_threads())
+    segs = candidate_starts(segmentations(fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge),
+                            n_objects, init.starts)
+    starts = [Start(masks_to_sdf(s.masks, grid.pixel_size, workers=torch.get_num_threads()), s.intensities)
+              for s in segs]
     prob = _Problem(grid, loss, views, clock(init_times), fit_views, held_views, rng, log_dir, logger, trainer,
-                    heldout.check_every, resume, run_clock, [])
+                    heldout.check_every, resume, run_clock, [], np.random.default_rng([seed, 1]))
 
     stages: dict = {}
-    fitted: dict[int, tuple[Field, SinogramFit, np.ndarray]] = {}
+    fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
 
     def fit_rung(n_terms: int) -> Rung:
         with torch.random.fork_rng():  # each rung's weights from the seed alone, whatever ran before (resume)
             torch.manual_seed(seed)
             net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
-        net.set_intensities(torch.tensor(seg.intensities, dtype=torch.float32))
-        fit, checked = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "", (optim.init_steps, optim.fit_steps),
-                        optim, render, targets, stages, optim.coarse_size)
-        fitted[n_terms] = net, fit, checked
+        fit, checked, start = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "",
+                                        (optim.init_steps, optim.fit_steps), optim, render, starts, stages,
+                                        optim.coarse_size)
+        fitted[n_terms] = net, fit, checked, start
         return Rung(n_terms, _mean_or_nan(_held_losses(prob, checked)), net.describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
-    net, fit, checked = fitted[chosen.n_terms]
+    net, fit, checked, start = fitted[chosen.n_terms]
+    seg = segs[start]
 
     masks = binarise(field_frames(fit, prob.init_times))
     objects = object_models(boundary_motion_px(masks), capacity.static_below_px if chosen.n_terms else math.inf)
@@ -302,9 +339,9 @@ def reconstruct(
         # The second pass continues the chosen field (from random weights it would need as many
         # steps as the first): InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
         targets = masks_to_sdf(masks, grid.pixel_size, workers=torch.get_num_threads())
-        fit, checked = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
-                        replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
-                        targets, stages)
+        fit, checked, _ = _fit_pass(prob, net, "refine_", (optim.refine_init_steps, optim.refine_fit_steps),
+                                    replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px),
+                                    [Start(targets)], stages)
 
     trace = _trace(prob, fit, clock(frame_times), render, grid, units.intensity)
     frames, sdf = _frames(fit, clock(frame_times), render, grid)
@@ -322,6 +359,7 @@ def reconstruct(
                      heldout_loss=_mean_or_nan(held),
                      heldout_se=heldout_standard_error(held), stages=stages, capacity=described,
                      init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels,
+                           "start": start, "starts_tried": len(segs),
                            "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
                            "levels": [float(a) * units.intensity for a in seg.intensities],
                            "length_unit": units.length, "intensity_unit": units.intensity},

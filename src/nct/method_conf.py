@@ -227,7 +227,9 @@ class InitConf:
     (Algorithm 1, and multi-level Otsu on the foreground where it cannot separate K levels),
     "gmm" (Algorithm 1 only) or "otsu" (segment.py). levels: "sinogram" (every candidate choice
     of levels is judged by how well its masks explain the fitted views, which also give a(k):
-    levels.py) or "fbp" (Algorithm 1's rule and the FBP levels).
+    levels.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, InitFit
+    runs from each of the judge's this many best candidates and the sinogram fit continues the one
+    whose field misfits the held-out views least (method.candidate_starts; 1: the best judged only).
     """
 
     frames_per_rotation: int = 60
@@ -235,6 +237,7 @@ class InitConf:
     gmm_share: float = 0.02
     route: str = "auto"
     levels: str = "sinogram"
+    starts: int = 2
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
@@ -242,6 +245,7 @@ class InitConf:
         require(self.frames_per_rotation >= 1, "init.frames_per_rotation", ">= 1", self.frames_per_rotation)
         require(self.kappa >= 0, "init.kappa", ">= 0", self.kappa)
         require(0 < self.gmm_share <= 1, "init.gmm_share", "in (0, 1]", self.gmm_share)
+        require(self.starts >= 1, "init.starts", ">= 1", self.starts)
 
 
 @dataclass

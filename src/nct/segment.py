@@ -80,6 +80,15 @@ def segment(
     and the fallback's levels, is judged and the lowest misfit wins, with the judge's intensities.
     Raises `NoObjectError` when nothing stands out.
     """
+    return segmentations(frames, n_objects, rng, kappa, share, route, judge)[0]
+
+
+def segmentations(
+    frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int = 3, share: float = 0.02,
+    route: str = "auto", judge: Judge | None = None,
+) -> list[Segmentation]:
+    """`segment`'s candidates, best first: with a judge, every distinct judged segmentation by
+    rising misfit (ties keep Algorithm 1's order); without, the one the rule picks."""
     if frames.ndim != 3:
         raise ValueError(f"frames must be [F, H, W], got shape {frames.shape}")
     if n_objects < 1:
@@ -111,8 +120,13 @@ def segment(
             if not candidates:
                 raise
     if judge is None:
-        return _segmentation(*candidates[0])
-    return min((_segmentation(*c, judge) for c in candidates), key=lambda seg: seg.misfit)
+        return [_segmentation(*candidates[0])]
+    judged: list[Segmentation] = []
+    for c in candidates:
+        seg = _segmentation(*c, judge)
+        if not any(np.array_equal(seg.masks, other.masks) for other in judged):
+            judged.append(seg)
+    return sorted(judged, key=lambda seg: seg.misfit)
 
 
 def _segmentation(route: str, smoothing: float, frames: np.ndarray, levels: np.ndarray,
