@@ -1,5 +1,6 @@
 """What the initialisation saw in a sinogram file: Algorithm 1's mixture classes and every candidate
-the sinogram judge scored (``init.levels=sinogram``), with the choice the run makes.
+the sinogram judge scored (``init.levels=sinogram``), best first, with the starts InitFit tries
+(``init.starts``, K >= 2; the run keeps the one its held-out views prefer: metrics.json -> init -> start).
 
 A diagnostic for a scene whose objects start wrong (benchmarks/results/generalisation/seed1:
 scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct``
@@ -25,6 +26,7 @@ from nct import segment as seg
 from nct.cli import CONFIG_MODULE
 from nct.config import validate
 from nct.errors import InputError, MethodError
+from nct.method import candidate_starts
 from nct.pipeline import acquire, reconstruct_all
 
 
@@ -37,7 +39,8 @@ class _Caught(Exception):
 
 
 def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tuple:
-    """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and judge."""
+    """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and
+    judge, and the number of starts InitFit tries (``init.starts``)."""
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
         cfg = compose(config_name="config",
                       overrides=["data=file", f"data.path={path}", f"data.n_objects={n_objects}", *overrides])
@@ -47,16 +50,16 @@ def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tup
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
-    real = nct.method.segment
-    nct.method.segment = catch
+    real = nct.method.segmentations
+    nct.method.segmentations = catch
     try:
         with tempfile.TemporaryDirectory() as tmp:
             reconstruct_all(conf, acq, Path(tmp))
     except _Caught as caught:
         frames, k, rng, kappa, share, route, judge = caught.args_
     finally:
-        nct.method.segment = real
-    return frames, k, rng, kappa, share, route, judge
+        nct.method.segmentations = real
+    return frames, k, rng, kappa, share, route, judge, conf.init.starts
 
 
 def main() -> None:
@@ -66,7 +69,8 @@ def main() -> None:
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="an nct override")
     args = parser.parse_args()
     try:
-        frames, k, rng, kappa, share, route, judge = segmentation_inputs(args.path, args.n_objects, args.override)
+        frames, k, rng, kappa, share, route, judge, starts = segmentation_inputs(args.path, args.n_objects,
+                                                                                args.override)
     except (InputError, MethodError) as err:  # a bad file or value, or no object: one line, as nct says it
         parser.exit(2, f"init_candidates: error: {err}\n")
     classes = seg.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
@@ -80,8 +84,11 @@ def main() -> None:
             misfit, a = judge(masks)
             print(f"  classes {np.round(levels[1:], 3)}: judge misfit {misfit:.4f}, a(k) {np.round(a, 3)}, "
                   f"pixels per frame {np.round(masks.sum(axis=(0, 2, 3)) / len(masks), 1)}")
-    chosen = seg.segment(frames, k, rng, kappa, share, route, judge)
-    print(f"chosen: route {chosen.route}, a(k) {np.round(chosen.intensities, 3)}, judge misfit {chosen.misfit}")
+    tried = candidate_starts(seg.segmentations(frames, k, rng, kappa, share, route, judge), k, starts)
+    for n, start in enumerate(tried):
+        print(f"InitFit start {n}: route {start.route}, a(k) {np.round(start.intensities, 3)}, judge misfit {start.misfit}")
+    if len(tried) > 1:
+        print("the run keeps the start whose field misfits the held-out views least (metrics.json -> init -> start)")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from nct.io import load_sinogram
 from nct.metrics import dice
 from nct.projector import fbp_frames
 from nct.scanner import ImageGrid
-from nct.segment import segment
+from nct.segment import segmentations
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -150,8 +150,8 @@ def test_own_level_of_a_nested_object_adds_its_containers():
 
 
 def test_init_candidates_sees_what_the_run_segments(tmp_path):
-    """benchmarks/init_candidates.py stops the run where it segments: its judged choice has the a(k)
-    that a full run records as its initial levels (metrics.json -> init -> levels)."""
+    """benchmarks/init_candidates.py stops the run where it segments: the judged candidate the run
+    kept (metrics.json -> init -> start) has the a(k) it records as its initial levels."""
     from nct.pipeline import run_job
     from conftest import compose_config
 
@@ -159,10 +159,12 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
     path = S.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
     overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
                  "export.tiff=false", "export.png=false"]
-    frames, k, rng, kappa, share, route, judge = load("init_candidates").segmentation_inputs(path, 2, overrides)
-    assert frames.ndim == 3 and k == 2 and judge is not None
-    chosen = segment(frames, k, rng, kappa, share, route, judge)
+    frames, k, rng, kappa, share, route, judge, starts = load("init_candidates").segmentation_inputs(path, 2, overrides)
+    assert frames.ndim == 3 and k == 2 and judge is not None and starts == 2
+    ranked = segmentations(frames, k, rng, kappa, share, route, judge)
     run_job(compose_config(["data=file", f"data.path={path}", "data.n_objects=2", *overrides]), tmp_path / "run")
     init = json.loads((tmp_path / "run" / "metrics.json").read_text())["init"]
-    np.testing.assert_allclose(np.asarray(chosen.intensities) * init["intensity_unit"], init["levels"], rtol=1e-6)
+    assert init["starts_tried"] == 2 and init["start"] in (0, 1)
+    kept = ranked[init["start"]]
+    np.testing.assert_allclose(np.asarray(kept.intensities) * init["intensity_unit"], init["levels"], rtol=1e-6)
     assert sorted(init["levels"]) == pytest.approx([0.6, 1.5], rel=0.1)
