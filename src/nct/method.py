@@ -147,10 +147,13 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         return SinogramFit(net, prob.grid, replace(optim, lr=optim.lr * rate, intensity_lr=optim.intensity_lr * rate),
                            render, prob.loss, prob.views, fit_steps, lattice)
 
+    def init_name(n: int) -> str:
+        return prefix + "init" + (f"_start{n}" if n else "")
+
     weights = copy.deepcopy(net.state_dict())
     tried: list[tuple[float, dict, SinogramFit]] = []
     for n, begin in enumerate(starts):
-        name = prefix + "init" + (f"_start{n}" if n else "")
+        name = init_name(n)
         net.load_state_dict(weights)
         if begin.intensities is not None:
             net.set_intensities(torch.tensor(begin.intensities, dtype=torch.float32))
@@ -165,9 +168,9 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         stages[name]["misfit"] = misfit
         tried.append((misfit, copy.deepcopy(net.state_dict()), fit))
     chosen = min(range(len(tried)), key=lambda n: tried[n][0])
-    start, started, fit = tried[chosen]
+    start, started, fit = tried[chosen]  # the kept start's misfit, field and fit
     for n in range(len(tried)):
-        stages[prefix + "init" + (f"_start{n}" if n else "")]["kept"] = n == chosen
+        stages[init_name(n)]["kept"] = n == chosen
     if len(tried) > 1:
         log.info("%sinit: started from candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
                  ", ".join(f"{m:.4g}" for m, _, _ in tried))
