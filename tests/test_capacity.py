@@ -53,6 +53,10 @@ def test_climb_stops_at_the_first_rung_that_does_not_pay():
     (dict(ladder=[-1, 8]), "capacity.ladder must be term counts >= 0"),
     (dict(tolerance=1.5), "capacity.tolerance must be in \\[0, 1\\)"),
     (dict(static_below_px=-1.0), "capacity.static_below_px must be >= 0"),
+    (dict(band_f_max=0.0), "capacity.band_f_max must be > 0 or null"),
+    (dict(band_gain=0.0), "capacity.band_gain must be in \\(0, 1\\]"),
+    (dict(band_gain=1.5), "capacity.band_gain must be in \\(0, 1\\]"),
+    (dict(band_min_rotations=-1.0), "capacity.band_min_rotations must be >= 0"),
 ])
 def test_bad_settings_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -11,12 +11,19 @@ less than ``static_below_px`` (e.g. 0.25) gets a static model for the rest of th
 static body beside a moving vessel holds no temporal terms. This costs no fit. Off by default:
 the boundary motion of some moving objects reads as low as 0.17-0.25 px, that of a static one up
 to 0.26 px, and freezing such a moving object cost up to 0.036 Dice (benchmarks/results/capacity).
+
+The temporal band: on scans of several rotations the first pass is fitted a second time with a
+wider band of frequencies (``band_f_max``), kept only where it cuts the held-out loss to at most
+``band_gain`` of the configured band's. An ellipse turning at about 180 deg/rot changes at about
+one cycle per rotation, beyond the configured band's largest frequencies; over several rotations
+the same angles are seen again at other times, so the held-out views expose a band too narrow.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 from skimage.measure import perimeter
@@ -32,6 +39,10 @@ class CapacityConf:
     strictly increasing (0 = static). tolerance: the smallest relative drop of the held-out
     loss that justifies the next rung. static_below_px: an object whose boundary moves less
     than this (pixels, mean over frames) after the first pass is made static (0: never).
+    band_f_max: the wider band (model.f_max of the second fit; None: never tried), tried when
+    the views span at least ``band_min_rotations`` rotations and it exceeds model.f_max.
+    band_gain: the wider band is kept when its held-out loss is at most this share of the
+    configured band's.
     """
 
     name: str = "fixed"
@@ -39,6 +50,9 @@ class CapacityConf:
     ladder: list[int] = field(default_factory=lambda: [0, 8, 32])
     tolerance: float = 0.05
     static_below_px: float = 0.0
+    band_f_max: Optional[float] = 0.5
+    band_gain: float = 0.6
+    band_min_rotations: float = 1.5
 
     def __post_init__(self) -> None:
         require(len(self.ladder) >= 1, "capacity.ladder", "a non-empty list of term counts", self.ladder)
@@ -47,6 +61,20 @@ class CapacityConf:
                 "strictly increasing", self.ladder)
         require(0 <= self.tolerance < 1, "capacity.tolerance", "in [0, 1)", self.tolerance)
         require(self.static_below_px >= 0, "capacity.static_below_px", ">= 0", self.static_below_px)
+        require(self.band_f_max is None or self.band_f_max > 0, "capacity.band_f_max", "> 0 or null",
+                self.band_f_max)
+        require(0 < self.band_gain <= 1, "capacity.band_gain", "in (0, 1]", self.band_gain)
+        require(self.band_min_rotations >= 0, "capacity.band_min_rotations", ">= 0", self.band_min_rotations)
+
+    def tries_band(self, f_max: float, rotations: float, n_terms: int, held_out: bool) -> bool:
+        """Whether the wider band is tried after a first pass at ``f_max`` with ``n_terms`` terms
+        on views spanning ``rotations`` (it is scored on held-out views, so needs some)."""
+        return (self.band_f_max is not None and self.band_f_max > f_max and n_terms > 0 and held_out
+                and rotations >= self.band_min_rotations)
+
+    def keeps_band(self, configured: float, wider: float) -> bool:
+        """Whether the wider band's held-out loss ``wider`` is low enough against ``configured``'s."""
+        return wider <= self.band_gain * configured
 
 
 @dataclass(frozen=True)

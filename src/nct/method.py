@@ -200,6 +200,17 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     return fit, losses, chosen
 
 
+def _band_choice(capacity: CapacityConf, f_max: float, configured: float, wider: float) -> dict:
+    """The temporal band kept after both first passes, and why, for metrics.json."""
+    keep = capacity.keeps_band(configured, wider)
+    kept = capacity.band_f_max if keep else f_max
+    reason = (f"F_max {capacity.band_f_max:g} changed the held-out loss by {wider / configured - 1:+.1%} "
+              f"({configured:.4g} -> {wider:.4g}); kept when it is at most {capacity.band_gain:.0%} of F_max {f_max:g}'s")
+    log.info("temporal band: %s: keeping F_max %g", reason, kept)
+    return {"f_max": [f_max, capacity.band_f_max], "heldout_loss": [configured, wider], "gain": capacity.band_gain,
+            "kept_f_max": kept, "reason": reason}
+
+
 def candidate_starts(ranked: list[Segmentation], n_objects: int, most: int) -> list[Segmentation]:
     """The segmentations InitFit tries (``init.starts``), best judged first. One object starts on
     the brightest structure whichever candidate wins, and the fit moves its boundary; with
@@ -315,19 +326,33 @@ def reconstruct(
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
+    replay = copy.deepcopy(rng), torch.get_rng_state()  # every first pass starts from these streams
+
+    def first_pass(conf: ModelConf, prefix: str, on: _Problem) -> tuple[Field, SinogramFit, np.ndarray, int]:
+        with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
+            torch.manual_seed(seed)
+            net = build_field(conf, n_objects, torch.Generator().manual_seed(seed))
+        fit, checked, start = _fit_pass(on, net, prefix, (optim.init_steps, optim.fit_steps), optim, render,
+                                        starts, stages, optim.coarse_size)
+        return net, fit, checked, start
 
     def fit_rung(n_terms: int) -> Rung:
-        with torch.random.fork_rng():  # each rung's weights from the seed alone, whatever ran before (resume)
-            torch.manual_seed(seed)
-            net = build_field(replace(model, n_terms=n_terms), n_objects, torch.Generator().manual_seed(seed))
-        fit, checked, start = _fit_pass(prob, net, f"m{n_terms}_" if capacity.auto else "",
-                                        (optim.init_steps, optim.fit_steps), optim, render, starts, stages,
-                                        optim.coarse_size)
-        fitted[n_terms] = net, fit, checked, start
-        return Rung(n_terms, _mean_or_nan(_held_losses(prob, checked)), net.describe()["n_params"])
+        fitted[n_terms] = first_pass(replace(model, n_terms=n_terms), f"m{n_terms}_" if capacity.auto else "", prob)
+        return Rung(n_terms, _mean_or_nan(_held_losses(prob, fitted[n_terms][2])),
+                    fitted[n_terms][0].describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
     net, fit, checked, start = fitted[chosen.n_terms]
+    band = None
+    if capacity.tries_band(model.f_max, float(prob.views.times.max()), chosen.n_terms, len(held_views) > 0):
+        # Run as a first pass at the wider band would (same streams), so a kept band is that run.
+        with torch.random.fork_rng():
+            torch.set_rng_state(replay[1])
+            wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), "band_",
+                              replace(prob, rng=copy.deepcopy(replay[0]), starts_rng=np.random.default_rng([seed, 1])))
+        band = _band_choice(capacity, model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])))
+        if band["kept_f_max"] != model.f_max:
+            (net, fit, checked, start), model = wide, replace(model, f_max=capacity.band_f_max)
     seg = segs[start]
 
     masks = binarise(field_frames(fit, prob.init_times))
@@ -352,6 +377,8 @@ def reconstruct(
     frames, sdf, amplitudes = frames * units.intensity, sdf * units.length, amplitudes.double() * units.intensity
     described = {"model": model.name, "family": model.family, "f_max": model.f_max, **net.describe()}
     described["objects"] = {"static_below_px": capacity.static_below_px, "per_object": objects}
+    if band:
+        described["band"] = band
     if capacity.auto:
         described["choice"] = {
             "ladder": [vars(r) for r in tried], "tolerance": capacity.tolerance,

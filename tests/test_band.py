@@ -1,0 +1,85 @@
+"""The temporal band (``capacity.band_f_max``): on scans of several rotations a wider band is
+fitted too and kept only where the held-out views demand it (benchmarks/results/generalisation:
+ellipses turning at about 180 deg/rotation over 3-4 rotations)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from nct.capacity import CapacityConf
+from nct.method import reconstruct
+from nct.method_conf import LossConf
+from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.scanner import ImageGrid, Scanner
+from nct.simulate import simulate
+from tiny_fits import INIT, MODEL, OPTIM, TRAINER
+
+GRID = ImageGrid(32)
+LONGER = replace(OPTIM, fit_steps=200, lr_decay_every=66)
+OFF = CapacityConf(band_f_max=None)
+
+
+def turning_ellipse(deg_per_rotation: float, rotations: float):
+    """An ellipse (semi-axes 0.25, 0.1) turning about the centre, 60 views per rotation, noiseless:
+    (sinogram, 12 frame times)."""
+    ellipse = EllipseConf(a=Signal(0.25), b=Signal(0.1), angle_deg=Signal(rate=deg_per_rotation))
+    scanner = Scanner(views_per_rotation=60, rotations=rotations, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    times = scanner.frame_times(12)
+    phantom = build_phantom(ComposedConf(objects=[ellipse]), scanner.rotation_time)
+    return simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0)), times
+
+
+def run(sino, times, capacity: CapacityConf, f_max: float = MODEL.f_max, optim=LONGER):
+    return reconstruct(sino, GRID, times, replace(MODEL, f_max=f_max), LossConf(), TRAINER, 0, log_dir=None,
+                       logger="none", optim=optim, init=INIT, capacity=capacity)
+
+
+def mse(result, sino) -> float:
+    return float(np.mean((result.frames - sino.truth.frames) ** 2))
+
+
+def test_a_fast_turn_over_three_rotations_keeps_the_wider_band_and_is_that_run():
+    sino, times = turning_ellipse(180.0, 3.0)
+    banded, narrow = run(sino, times, CapacityConf()), run(sino, times, OFF)
+    band = banded.capacity["band"]
+    assert band["f_max"] == [0.3, 0.5] and band["kept_f_max"] == 0.5 and banded.capacity["f_max"] == 0.5
+    # The configured band cannot follow one cycle per rotation: its held-out loss is far above.
+    assert band["heldout_loss"][1] < 0.5 * band["heldout_loss"][0]
+    assert band["heldout_loss"][0] == pytest.approx(narrow.heldout_loss, rel=1e-6)
+    assert list(banded.stages) == ["init", "fit", "band_init", "band_fit"]
+    assert mse(banded, sino) < 0.5 * mse(narrow, sino), (mse(banded, sino), mse(narrow, sino))
+    # The kept band is the run configured at that band, bit for bit (same random streams).
+    wide = run(sino, times, OFF, f_max=0.5)
+    np.testing.assert_array_equal(banded.frames, wide.frames)
+    assert banded.heldout_loss == wide.heldout_loss
+
+
+def test_a_slow_turn_keeps_the_configured_band_unchanged():
+    sino, times = turning_ellipse(30.0, 2.0)
+    banded, narrow = run(sino, times, CapacityConf(), optim=OPTIM), run(sino, times, OFF, optim=OPTIM)
+    band = banded.capacity["band"]
+    assert band["kept_f_max"] == 0.3 and band["heldout_loss"][1] > 0.6 * band["heldout_loss"][0]
+    np.testing.assert_array_equal(banded.frames, narrow.frames)
+    assert banded.heldout_loss == narrow.heldout_loss
+
+
+@pytest.mark.parametrize("f_max, rotations, n_terms, held_out, tried", [
+    (0.3, 3.0, 32, True, True),
+    (0.3, 1.0, 32, True, False),   # one rotation: each angle is seen once
+    (0.3, 1.5, 32, True, True),
+    (0.5, 3.0, 32, True, False),   # already at the wider band
+    (3.0, 3.0, 32, True, False),   # the paper's band is wider
+    (0.3, 3.0, 0, True, False),    # a static model has no band
+    (0.3, 3.0, 32, False, False),  # nothing to score it on
+])
+def test_when_the_band_is_tried(f_max, rotations, n_terms, held_out, tried):
+    assert CapacityConf().tries_band(f_max, rotations, n_terms, held_out) is tried
+    assert not OFF.tries_band(f_max, rotations, n_terms, held_out)
+
+
+def test_the_band_is_kept_only_for_a_large_gain():
+    conf = CapacityConf(band_gain=0.6)
+    assert conf.keeps_band(0.1, 0.06) and not conf.keeps_band(0.1, 0.061)
