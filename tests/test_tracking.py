@@ -11,7 +11,7 @@ from tensorboard.plugins.hparams import api_pb2, backend_context, plugin_data_pb
 
 from nct.pipeline import run_job
 from nct.tables import fmt
-from nct.tracking import run_hparams
+from nct.tracking import run_hparams, write_capacity
 
 IDENTITY = {"method", "data.name", "phantom.name", "model.name", "seed"}
 
@@ -121,3 +121,14 @@ def test_stages_log_previews_residuals_and_heldout_validation(tiny_cfg, run_dir)
     held = fit.Scalars("val/heldout_loss")
     # After steps 2 and 4 of 5; Lightning files them under the last training step's 0-based index.
     assert [s.step for s in held] == [1, 3] and all(0 < s.value < 2 for s in held)
+
+
+def test_capacity_text_says_which_temporal_band_was_kept_and_why(tmp_path):
+    band = {"f_max": [0.3, 0.5], "heldout_loss": [0.1, 0.03], "gain": 0.6, "kept_f_max": 0.5,
+            "reason": "F_max 0.5 changed the held-out loss by -70.0% (0.1 -> 0.03)"}
+    write_capacity(tmp_path, {"family": "siren", "n_terms": 32, "n_params": 21249, "f_max": 0.5, "band": band})
+    acc = EventAccumulator(str(tmp_path))
+    acc.Reload()
+    text = acc.Tensors("capacity/text_summary")[0].tensor_proto.string_val[0].decode()
+    assert "siren field, 32 temporal terms, 21249 parameters, F_max 0.5 cycles/rotation" in text
+    assert f"temporal band: {band['reason']}" in text

@@ -78,11 +78,14 @@ def write_frames(tb_dir: Path, frames: dict[str, np.ndarray], n_images: int = 6)
 
 
 def write_capacity(tb_dir: Path, capacity: dict) -> None:
-    """The model's capacity as text (family, terms, parameters, each object's static or temporal model
-    and, if the terms were chosen automatically, why)
+    """The model's capacity as text (family, terms, parameters, the temporal band and why, each
+    object's static or temporal model and, if the terms were chosen automatically, why)
     and the held-out loss of each fitted rung as ``capacity/heldout_loss`` over the term count."""
     tb_dir.mkdir(parents=True, exist_ok=True)
-    lines = [f"{capacity['family']} field, {capacity['n_terms']} temporal terms, {capacity['n_params']} parameters"]
+    lines = [f"{capacity['family']} field, {capacity['n_terms']} temporal terms, {capacity['n_params']} parameters, "
+             f"F_max {fmt(capacity['f_max'])} cycles/rotation"]
+    if capacity.get("band"):
+        lines.append(f"temporal band: {capacity['band']['reason']}")
     objects = capacity.get("objects")
     if objects:
         lines += [f"object {k}: boundary motion {fmt(o['motion_px'])} px after the fit: {o['model']} "
