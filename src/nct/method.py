@@ -283,7 +283,8 @@ def reconstruct(
     intensities returned in the data's. ``trainer``: Lightning's settings; ``optim``, ``render``,
     ``init``, ``heldout``: the config groups of those names (their defaults when None). With
     ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``) and the
-    refinement continues the chosen rung. ``resume``: stages that finished before in ``log_dir``
+    refinement continues the chosen rung; on scans of several rotations the first pass is also run at
+    the wider temporal band ``capacity.band_f_max`` (prefix ``band_``; ``capacity.keeps_band``). ``resume``: stages that finished before in ``log_dir``
     are loaded from their checkpoints, not run again (``stages.run_stage``).
     """
     capacity = capacity or CapacityConf()
@@ -326,7 +327,7 @@ def reconstruct(
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
-    replay = copy.deepcopy(rng), torch.get_rng_state()  # every first pass starts from these streams
+    replay = copy.deepcopy(rng), torch.get_rng_state()  # the streams the first pass starts from
 
     def first_pass(conf: ModelConf, prefix: str, on: _Problem) -> tuple[Field, SinogramFit, np.ndarray, int]:
         with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
