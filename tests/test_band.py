@@ -4,6 +4,8 @@ ellipses turning at about 180 deg/rotation over 3-4 rotations)."""
 
 from __future__ import annotations
 
+import csv
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -83,3 +85,27 @@ def test_when_the_band_is_tried(f_max, rotations, n_terms, held_out, tried):
 def test_the_band_is_kept_only_for_a_large_gain():
     conf = CapacityConf(band_gain=0.6)
     assert conf.keeps_band(0.1, 0.06) and not conf.keeps_band(0.1, 0.061)
+
+
+def fake_call(root, rows: dict[str, tuple[int, float]]):
+    """A generalisation call's folder: scenes.csv and each scene's metrics.json (rotations, held-out loss)."""
+    root.mkdir()
+    lines = ["scene,rotations,views_per_rotation"] + [f"{s},{r},120" for s, (r, _) in rows.items()]
+    (root / "scenes.csv").write_text("\n".join(lines) + "\n")
+    for scene, (_, loss) in rows.items():
+        run = root / "runs" / scene / "nct"
+        run.mkdir(parents=True)
+        (run / "metrics.json").write_text(json.dumps({"heldout_loss": loss}))
+    return root
+
+
+def test_band_choices_copies_each_scene_from_the_run_the_rule_keeps(tmp_path):
+    from test_generalisation import load
+    narrow = fake_call(tmp_path / "narrow", {"a": (1, 0.1), "b": (3, 0.1), "c": (2, 0.1)})
+    wide = fake_call(tmp_path / "wide", {"a": (1, 0.01), "b": (3, 0.05), "c": (2, 0.07)})
+    assert load("band_choices").main(["--narrow", str(narrow), "--wide", str(wide), "--out", str(tmp_path / "o")]) == 0
+    copied = {s: json.loads((tmp_path / "o" / "runs" / s / "nct" / "metrics.json").read_text())["heldout_loss"]
+              for s in "abc"}
+    assert copied == {"a": 0.1, "b": 0.05, "c": 0.1}  # a: one rotation, never tried; c: 0.7 > 0.6
+    rows = list(csv.reader((tmp_path / "o" / "band_choices.csv").open()))
+    assert [r[0] for r in rows[1:]] == ["b", "c"] and [r[4] for r in rows[1:]] == ["True", "False"]
