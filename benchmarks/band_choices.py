@@ -22,6 +22,8 @@ import sys
 from pathlib import Path
 
 from nct.capacity import CapacityConf
+from nct.io import load_sinogram
+from nct.method import rotations_spanned
 from nct.method_conf import ModelConf
 
 
@@ -29,6 +31,11 @@ def heldout(call: Path, scene: str) -> float | None:
     """The held-out loss a call's run of ``scene`` recorded (None: no finished run)."""
     path = call / "runs" / scene / "nct" / "metrics.json"
     return json.loads(path.read_text())["heldout_loss"] if path.is_file() else None
+
+
+def spanned(call: Path, scene: str) -> float:
+    """Rotations the views of a call's run of ``scene`` span (the sinogram file the run wrote)."""
+    return rotations_spanned(load_sinogram(call / "runs" / scene / "nct" / "sinogram.npz"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,9 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     rows, choices = list(csv.DictReader((args.narrow / "scenes.csv").open())), []
     for row in rows:
         scene, source = row["scene"], args.narrow
-        span = int(row["rotations"]) - 1 / int(row["views_per_rotation"])  # in rotations, first to last view
         narrow = heldout(args.narrow, scene)
-        if narrow is not None and capacity.tries_band(f_max, span, ModelConf().n_terms, True):
+        if narrow is not None and capacity.tries_band(f_max, spanned(args.narrow, scene), ModelConf().n_terms, True):
             wide = next(((c, h) for c in args.wide if (h := heldout(c, scene)) is not None), None)
             if wide is None:
                 print(f"band_choices: error: no run of {scene} at the wider band in {args.wide}", file=sys.stderr)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from nct.capacity import CapacityConf
+from nct.io import save_sinogram
 from nct.method import reconstruct
 from nct.method_conf import LossConf
 from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
@@ -88,13 +89,14 @@ def test_the_band_is_kept_only_for_a_large_gain():
 
 
 def fake_call(root, rows: dict[str, tuple[int, float]]):
-    """A generalisation call's folder: scenes.csv and each scene's metrics.json (rotations, held-out loss)."""
+    """A generalisation call's folder: scenes.csv, and per scene the run's sinogram file and
+    metrics.json (rotations, held-out loss)."""
     root.mkdir()
-    lines = ["scene,rotations,views_per_rotation"] + [f"{s},{r},120" for s, (r, _) in rows.items()]
-    (root / "scenes.csv").write_text("\n".join(lines) + "\n")
-    for scene, (_, loss) in rows.items():
+    (root / "scenes.csv").write_text("\n".join(["scene", *rows]) + "\n")
+    for scene, (rotations, loss) in rows.items():
         run = root / "runs" / scene / "nct"
         run.mkdir(parents=True)
+        save_sinogram(run / "sinogram.npz", turning_ellipse(30.0, rotations)[0])
         (run / "metrics.json").write_text(json.dumps({"heldout_loss": loss}))
     return root
 

@@ -76,6 +76,15 @@ class CapacityConf:
         """Whether the wider band's held-out loss ``wider`` is low enough against ``configured``'s."""
         return wider <= self.band_gain * configured
 
+    def band_choice(self, f_max: float, configured: float, wider: float) -> dict:
+        """The band kept after first passes at ``f_max`` and at ``band_f_max`` with those held-out
+        losses, and why, for metrics.json."""
+        kept = self.band_f_max if self.keeps_band(configured, wider) else f_max
+        reason = (f"F_max {self.band_f_max:g} changed the held-out loss by {wider / configured - 1:+.1%} "
+                  f"({configured:.4g} -> {wider:.4g}); kept when it is at most {self.band_gain:.0%} of F_max {f_max:g}'s")
+        return {"f_max": [f_max, self.band_f_max], "heldout_loss": [configured, wider], "gain": self.band_gain,
+                "kept_f_max": kept, "reason": reason}
+
 
 @dataclass(frozen=True)
 class Rung:

@@ -82,6 +82,11 @@ def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor
     return lambda t: torch.as_tensor((np.asarray(t, dtype=np.float64) - t0) * turns_per_s, dtype=torch.float32)
 
 
+def rotations_spanned(sino: Sinogram) -> float:
+    """Gantry rotations from the first view to the last."""
+    return float(rotations_since_start(sino)(sino.times).max())
+
+
 def split_views(n_views: int, every: int, run: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the fitted and the held-out views: runs of ``run`` consecutive views, every
     ``every``-th run held out (the middle one of each ``every`` runs)."""
@@ -200,17 +205,6 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     return fit, losses, chosen
 
 
-def _band_choice(capacity: CapacityConf, f_max: float, configured: float, wider: float) -> dict:
-    """The temporal band kept after both first passes, and why, for metrics.json."""
-    keep = capacity.keeps_band(configured, wider)
-    kept = capacity.band_f_max if keep else f_max
-    reason = (f"F_max {capacity.band_f_max:g} changed the held-out loss by {wider / configured - 1:+.1%} "
-              f"({configured:.4g} -> {wider:.4g}); kept when it is at most {capacity.band_gain:.0%} of F_max {f_max:g}'s")
-    log.info("temporal band: %s: keeping F_max %g", reason, kept)
-    return {"f_max": [f_max, capacity.band_f_max], "heldout_loss": [configured, wider], "gain": capacity.band_gain,
-            "kept_f_max": kept, "reason": reason}
-
-
 def candidate_starts(ranked: list[Segmentation], n_objects: int, most: int) -> list[Segmentation]:
     """The segmentations InitFit tries (``init.starts``), best judged first. One object starts on
     the brightest structure whichever candidate wins, and the fit moves its boundary; with
@@ -284,8 +278,9 @@ def reconstruct(
     ``init``, ``heldout``: the config groups of those names (their defaults when None). With
     ``capacity.auto`` the first pass is run for each rung of the ladder (prefix ``m<M>_``) and the
     refinement continues the chosen rung; on scans of several rotations the first pass is also run at
-    the wider temporal band ``capacity.band_f_max`` (prefix ``band_``; ``capacity.keeps_band``). ``resume``: stages that finished before in ``log_dir``
-    are loaded from their checkpoints, not run again (``stages.run_stage``).
+    the wider temporal band ``capacity.band_f_max`` (prefix ``band_``; ``capacity.band_choice``).
+    ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints, not
+    run again (``stages.run_stage``).
     """
     capacity = capacity or CapacityConf()
     optim, render = optim or OptimConf(), render or RenderConf()
@@ -327,7 +322,7 @@ def reconstruct(
 
     stages: dict = {}
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
-    replay = copy.deepcopy(rng), torch.get_rng_state()  # the streams the first pass starts from
+    replay = copy.deepcopy(prob.rng), copy.deepcopy(prob.starts_rng), torch.get_rng_state()  # the first pass's streams
 
     def first_pass(conf: ModelConf, prefix: str, on: _Problem) -> tuple[Field, SinogramFit, np.ndarray, int]:
         with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
@@ -338,20 +333,21 @@ def reconstruct(
         return net, fit, checked, start
 
     def fit_rung(n_terms: int) -> Rung:
-        fitted[n_terms] = first_pass(replace(model, n_terms=n_terms), f"m{n_terms}_" if capacity.auto else "", prob)
-        return Rung(n_terms, _mean_or_nan(_held_losses(prob, fitted[n_terms][2])),
-                    fitted[n_terms][0].describe()["n_params"])
+        fitted[n_terms] = net, _, checked, _ = first_pass(replace(model, n_terms=n_terms),
+                                                          f"m{n_terms}_" if capacity.auto else "", prob)
+        return Rung(n_terms, _mean_or_nan(_held_losses(prob, checked)), net.describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
     net, fit, checked, start = fitted[chosen.n_terms]
     band = None
-    if capacity.tries_band(model.f_max, float(prob.views.times.max()), chosen.n_terms, len(held_views) > 0):
+    if capacity.tries_band(model.f_max, rotations_spanned(sino), chosen.n_terms, len(held_views) > 0):
         # Run as a first pass at the wider band would (same streams), so a kept band is that run.
         with torch.random.fork_rng():
-            torch.set_rng_state(replay[1])
+            torch.set_rng_state(replay[2])
             wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), "band_",
-                              replace(prob, rng=copy.deepcopy(replay[0]), starts_rng=np.random.default_rng([seed, 1])))
-        band = _band_choice(capacity, model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])))
+                              replace(prob, rng=replay[0], starts_rng=replay[1]))
+        band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])))
+        log.info("temporal band: %s: keeping F_max %g", band["reason"], band["kept_f_max"])
         if band["kept_f_max"] != model.f_max:
             (net, fit, checked, start), model = wide, replace(model, f_max=capacity.band_f_max)
     seg = segs[start]
