@@ -21,7 +21,9 @@ def read(path):
 
 def test_fbp_run_writes_every_output(tiny_cfg, run_dir):
     run_job(tiny_cfg("method=fbp"), run_dir)
-    assert read(run_dir / "status.json")["status"] == "ok"
+    status = read(run_dir / "status.json")
+    assert status["status"] == "ok"
+    assert status["environment"]["torch"] == torch.__version__ and status["environment"]["numpy"] == np.__version__
     metrics = read(run_dir / "metrics.json")
     assert set(metrics["fbp"]) >= {"median_dice", "iqr_dice", "median_mse", "share_mse_lt_0.005", "share_dice_gt_0.85"}
     rec = np.load(run_dir / "reconstruction.npz")

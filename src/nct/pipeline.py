@@ -9,9 +9,11 @@ from __future__ import annotations
 import json
 import logging
 import math
+import platform
 import time
 import traceback
 from dataclasses import dataclass, replace
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -174,6 +176,19 @@ def read_status(out_dir: Path) -> dict | None:
 
 
 IGNORED_OVERRIDES = ("resume=", "hydra.")
+PACKAGES = ("nct", "torch", "numpy", "scipy", "scikit-image", "scikit-learn", "lightning", "hydra-core")
+
+
+def environment() -> dict[str, str]:
+    """Python's and the numerical packages' versions: the same seed gives the same metrics only
+    with the same versions (a solver or a random stream can change between releases)."""
+    def version(name: str) -> str:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:  # e.g. nct run from a source tree that was never installed
+            return "not installed"
+
+    return {"python": platform.python_version(), **{name: version(name) for name in PACKAGES}}
 
 
 def _settings(overrides: list[str] | None) -> list[str]:
@@ -189,11 +204,12 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) 
     """
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = _settings(overrides)
-    t0 = time.perf_counter()
+    t0, versions = time.perf_counter(), environment()
 
     def record(status: str, error: str | None = None, **extra) -> None:
         _write_json(out_dir / "status.json", {"status": status, "error": error, "overrides": settings,
-                                              "wall_time_s": time.perf_counter() - t0, **extra})
+                                              "wall_time_s": time.perf_counter() - t0, "environment": versions,
+                                              **extra})
 
     previous = read_status(out_dir)
     try:
