@@ -14,7 +14,7 @@ import pytest
 from nct.capacity import CapacityConf
 from nct.io import save_sinogram
 from nct.method import reconstruct
-from nct.method_conf import LossConf
+from nct.method_conf import HeldoutConf, LossConf
 from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
 from nct.scanner import ImageGrid, Scanner
 from nct.simulate import simulate
@@ -35,9 +35,9 @@ def turning_ellipse(deg_per_rotation: float, rotations: float):
     return simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0)), times
 
 
-def run(sino, times, capacity: CapacityConf, f_max: float = MODEL.f_max, optim=LONGER):
+def run(sino, times, capacity: CapacityConf, f_max: float = MODEL.f_max, optim=LONGER, heldout=None):
     return reconstruct(sino, GRID, times, replace(MODEL, f_max=f_max), LossConf(), TRAINER, 0, log_dir=None,
-                       logger="none", optim=optim, init=INIT, capacity=capacity)
+                       logger="none", optim=optim, init=INIT, capacity=capacity, heldout=heldout)
 
 
 def mse(result, sino) -> float:
@@ -53,6 +53,7 @@ def test_a_fast_turn_over_three_rotations_keeps_the_wider_band_and_is_that_run()
     assert band["heldout_loss"][1] < 0.5 * band["heldout_loss"][0]
     assert band["heldout_loss"][0] == pytest.approx(narrow.heldout_loss, rel=1e-6)
     assert list(banded.stages) == ["init", "fit", "band_init", "band_fit"]
+    assert not band["race"]["lost"] and banded.stages["band_fit"]["steps"] == LONGER.fit_steps  # won: fitted on
     assert mse(banded, sino) < 0.5 * mse(narrow, sino), (mse(banded, sino), mse(narrow, sino))
     # The kept band is the run configured at that band, bit for bit (same random streams).
     wide = run(sino, times, OFF, f_max=0.5)
@@ -65,8 +66,35 @@ def test_a_slow_turn_keeps_the_configured_band_unchanged():
     banded, narrow = run(sino, times, CapacityConf(), optim=OPTIM), run(sino, times, OFF, optim=OPTIM)
     band = banded.capacity["band"]
     assert band["kept_f_max"] == 0.3 and band["heldout_loss"][1] > 0.6 * band["heldout_loss"][0]
+    assert band["race"] is None  # one held-out check, at the last step: nothing to race on
     np.testing.assert_array_equal(banded.frames, narrow.frames)
     assert banded.heldout_loss == narrow.heldout_loss
+
+
+def test_a_wider_band_that_falls_behind_stops_at_the_race_and_changes_nothing():
+    sino, times = turning_ellipse(30.0, 2.0)
+    often = HeldoutConf(check_every=10)  # checks at steps 10, 20, 30, 40: the race runs from 0.3 x 40 = 12, so at 20
+    banded, narrow = run(sino, times, CapacityConf(), optim=OPTIM, heldout=often), \
+        run(sino, times, OFF, optim=OPTIM, heldout=often)
+    race = banded.capacity["band"]["race"]
+    assert race["step"] == 20 and race["lost"] and race["heldout_loss"][1] > 0.9 * race["heldout_loss"][0]
+    assert banded.stages["band_fit"]["steps"] == 20 and banded.stages["fit"]["steps"] == 40
+    assert [s for s, _ in banded.stages["band_fit"]["heldout_history"]] == [10, 20]
+    assert "stopped at step 20" in banded.capacity["band"]["reason"]
+    np.testing.assert_array_equal(banded.frames, narrow.frames)
+    assert banded.heldout_loss == narrow.heldout_loss
+
+
+def test_the_race_stops_the_wider_fit_at_the_first_check_where_it_falls_behind():
+    conf = CapacityConf(band_race_at=0.3, band_race_gain=0.9)
+    ours = [(100, 0.5), (200, 0.2), (300, 0.1), (400, 0.1), (500, 0.1), (1000, 0.05)]
+    assert conf.band_race([(200, 0.4), (300, 0.05), (400, 0.091), (500, 0.2)], ours, 1000) == {
+        "step": 400, "heldout_loss": [0.1, 0.091], "gain": 0.9, "lost": True}  # before 300 it does not count
+    assert conf.band_race([(300, 0.05), (400, 0.09)], ours, 1000) == {
+        "step": 400, "heldout_loss": [0.1, 0.09], "gain": 0.9, "lost": False}  # ahead at every check so far
+    assert conf.band_race([(200, 0.4)], ours, 1000) is None  # not yet due
+    assert conf.band_race([(1000, 0.4)], ours, 1000) is None  # the last step: the fit is over anyway
+    assert CapacityConf(band_race_at=None).band_race([(400, 0.5)], ours, 1000) is None
 
 
 @pytest.mark.parametrize("f_max, rotations, n_terms, held_out, tried", [
@@ -111,3 +139,25 @@ def test_band_choices_copies_each_scene_from_the_run_the_rule_keeps(tmp_path):
     assert copied == {"a": 0.1, "b": 0.05, "c": 0.1}  # a: one rotation, never tried; c: 0.7 > 0.6
     rows = list(csv.reader((tmp_path / "o" / "band_choices.csv").open()))
     assert [r[0] for r in rows[1:]] == ["b", "c"] and [r[4] for r in rows[1:]] == ["True", "False"]
+
+
+def test_band_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
+    from test_generalisation import load
+
+    def run(scene: str, wide: list[float], kept: bool) -> None:
+        steps = [100 * (i + 1) for i in range(10)]
+        stages = {"fit": {"kept": True, "steps": 1000, "wall_time_s": 10.0,
+                          "heldout_history": [[s, 0.1] for s in steps]},
+                  "band_init": {"steps": 300, "wall_time_s": 5.0},
+                  "band_fit": {"kept": True, "steps": 1000, "wall_time_s": 10.0,
+                               "heldout_history": [[s, w] for s, w in zip(steps, wide)]}}
+        folder = tmp_path / "call" / "runs" / scene / "nct"
+        folder.mkdir(parents=True)
+        band = {"f_max": [0.3, 0.5], "kept_f_max": 0.5 if kept else 0.3}
+        (folder / "metrics.json").write_text(json.dumps({"stages": stages, "capacity": {"band": band}}))
+
+    run("ahead", [0.2, 0.09, 0.05, 0.05, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04], kept=True)
+    run("behind", [0.2, 0.09, 0.08, 0.095, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], kept=False)
+    assert load("band_race").main(["--call", str(tmp_path / "call"), "--at", "0.3", "--gain", "0.9"]) == 0
+    # "behind" is ahead at 300 (0.8) and behind at 400 (0.95): stopped there, saving 60 % of its 10 s fit.
+    assert "| 0.3 | 0.9 | 1/2 | 400 | none | 6 of 30 s |" in capsys.readouterr().out

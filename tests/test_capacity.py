@@ -57,6 +57,8 @@ def test_climb_stops_at_the_first_rung_that_does_not_pay():
     (dict(band_gain=0.0), "capacity.band_gain must be in \\(0, 1\\]"),
     (dict(band_gain=1.5), "capacity.band_gain must be in \\(0, 1\\]"),
     (dict(band_min_rotations=-1.0), "capacity.band_min_rotations must be >= 0"),
+    (dict(band_race_at=1.0), "capacity.band_race_at must be in \\(0, 1\\) or null"),
+    (dict(band_race_gain=0.0), "capacity.band_race_gain must be > 0"),
 ])
 def test_bad_settings_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -17,6 +17,10 @@ wider band of frequencies (``band_f_max``), kept only where it cuts the held-out
 ``band_gain`` of the configured band's. An ellipse turning at about 180 deg/rot changes at about
 one cycle per rotation, beyond the configured band's largest frequencies; over several rotations
 the same angles are seen again at other times, so the held-out views expose a band too narrow.
+Most scans do not need it, so the wider fit races the configured one: from ``band_race_at`` of its
+steps on, its held-out loss is compared with the configured fit's at the same step at each check,
+and the fit stops at the first check where it is above ``band_race_gain`` of it. A fit that goes on is not touched, so a kept
+band is still the run configured at ``band_f_max``, bit for bit.
 """
 
 from __future__ import annotations
@@ -42,7 +46,9 @@ class CapacityConf:
     band_f_max: the wider band (model.f_max of the second fit; None: never tried), tried when
     the views span at least ``band_min_rotations`` rotations and it exceeds model.f_max.
     band_gain: the wider band is kept when its held-out loss is at most this share of the
-    configured band's.
+    configured band's. band_race_at: share of the fit's steps from which the wider band's fit
+    stops at the first held-out check where its loss is above ``band_race_gain`` x the configured
+    fit's at the same step (None: no race, always fitted to the end).
     """
 
     name: str = "fixed"
@@ -53,6 +59,8 @@ class CapacityConf:
     band_f_max: Optional[float] = 0.5
     band_gain: float = 0.6
     band_min_rotations: float = 1.5
+    band_race_at: Optional[float] = 0.3
+    band_race_gain: float = 0.9
 
     def __post_init__(self) -> None:
         require(len(self.ladder) >= 1, "capacity.ladder", "a non-empty list of term counts", self.ladder)
@@ -65,6 +73,9 @@ class CapacityConf:
                 self.band_f_max)
         require(0 < self.band_gain <= 1, "capacity.band_gain", "in (0, 1]", self.band_gain)
         require(self.band_min_rotations >= 0, "capacity.band_min_rotations", ">= 0", self.band_min_rotations)
+        require(self.band_race_at is None or 0 < self.band_race_at < 1, "capacity.band_race_at", "in (0, 1) or null",
+                self.band_race_at)
+        require(self.band_race_gain > 0, "capacity.band_race_gain", "> 0", self.band_race_gain)
 
     def tries_band(self, f_max: float, rotations: float, n_terms: int, held_out: bool) -> bool:
         """Whether the wider band is tried after a first pass at ``f_max`` with ``n_terms`` terms
@@ -76,14 +87,40 @@ class CapacityConf:
         """Whether the wider band's held-out loss ``wider`` is low enough against ``configured``'s."""
         return wider <= self.band_gain * configured
 
-    def band_choice(self, f_max: float, configured: float, wider: float) -> dict:
+    def band_race(self, wider: list[tuple[int, float]], configured: list[tuple[int, float]],
+                  steps: int) -> dict | None:
+        """The race of the wider fit's held-out history [(step, loss)] against the configured
+        fit's, at each check from ``band_race_at`` x ``steps`` until before the last step: the
+        first check where the wider fit's loss is above ``band_race_gain`` x the configured one's
+        (lost), else the latest (not lost so far), with its step and both losses; None before the
+        first such check, or with no race."""
+        if self.band_race_at is None:
+            return None
+        ours = dict(configured)
+        due = [(step, ours[step], loss) for step, loss in wider
+               if self.band_race_at * steps <= step < steps and step in ours]
+        if not due:
+            return None
+        step, at, loss = next((d for d in due if d[2] > self.band_race_gain * d[1]), due[-1])
+        return {"step": step, "heldout_loss": [at, loss], "gain": self.band_race_gain,
+                "lost": loss > self.band_race_gain * at}
+
+    def band_choice(self, f_max: float, configured: float, wider: float, race: dict | None = None) -> dict:
         """The band kept after first passes at ``f_max`` and at ``band_f_max`` with those held-out
-        losses, and why, for metrics.json."""
-        kept = self.band_f_max if self.keeps_band(configured, wider) else f_max
-        reason = (f"F_max {self.band_f_max:g} changed the held-out loss by {wider / configured - 1:+.1%} "
-                  f"({configured:.4g} -> {wider:.4g}); kept when it is at most {self.band_gain:.0%} of F_max {f_max:g}'s")
+        losses (the wider one where its fit stopped), and why, for metrics.json; ``race``: ``band_race``'s."""
+        lost = bool(race and race["lost"])
+        kept = self.band_f_max if not lost and self.keeps_band(configured, wider) else f_max
+        if lost:
+            at, ahead = race["heldout_loss"]
+            reason = (f"F_max {self.band_f_max:g}'s fit stopped at step {race['step']}: its held-out loss was "
+                      f"{ahead / at:.0%} of F_max {f_max:g}'s at that step ({at:.4g} -> {ahead:.4g}); it goes on when "
+                      f"at most {race['gain']:.0%}")
+        else:
+            reason = (f"F_max {self.band_f_max:g} changed the held-out loss by {wider / configured - 1:+.1%} "
+                      f"({configured:.4g} -> {wider:.4g}); kept when it is at most {self.band_gain:.0%} of F_max "
+                      f"{f_max:g}'s")
         return {"f_max": [f_max, self.band_f_max], "heldout_loss": [configured, wider], "gain": self.band_gain,
-                "kept_f_max": kept, "reason": reason}
+                "kept_f_max": kept, "reason": reason, "race": race}
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,8 @@ from nct.sdf import binarise, masks_to_sdf
 from nct.segment import Segmentation, segmentations
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.stages import (LOGGERS, FieldStage, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit, Snapshot,
-                        SnapshotLog, Views, run_stage, snapshot)
+from nct.stages import (LOGGERS, FieldStage, HeldoutStop, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit,
+                        Snapshot, SnapshotLog, Views, run_stage, snapshot)
 
 log = logging.getLogger(__name__)
 
@@ -138,13 +138,15 @@ class Start:
 
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
-              render: RenderConf, starts: list[Start], stages: dict,
-              lattice: int | None = None) -> tuple[SinogramFit, np.ndarray, int]:
+              render: RenderConf, starts: list[Start], stages: dict, lattice: int | None = None,
+              stop: Callable[[list[tuple[int, float]]], bool] | None = None) -> tuple[SinogramFit, np.ndarray, int]:
     """One pass: InitFit to each start's SDF targets, then SinogramFit from the start whose field
     misfits the ``_check_views`` least, the field on a ``lattice``^2 lattice (None: the grid's);
     records the stages in ``stages``. A SinogramFit whose misfit ends above where it started is
     rerun from the InitFit's field at half the rates (``optim.retries``) and the attempt with the
-    lowest misfit kept. Returns the fit, its misfit on each check view [c] and the start's index."""
+    lowest misfit kept. ``stop``: SinogramFit ends after a held-out check where it says so from the
+    held-out history, and is not rerun. Returns the fit, its misfit on each check view [c] and the
+    start's index."""
     init_steps, fit_steps = steps
     check = torch.from_numpy(_check_views(prob))
 
@@ -187,12 +189,13 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         stages[name] = run_stage(
             fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
             fit_steps, name, prob.trainer, prob.log_dir, prob.logger,
-            (MinLossStop(optim.min_loss), *_snapshot_log(prob, name)), prob.check_every, prob.resume)
+            (MinLossStop(optim.min_loss), *_snapshot_log(prob, name), *([HeldoutStop(stop)] if stop else [])),
+            prob.check_every, prob.resume)
         losses = fit.view_losses(check)
         end = float(losses.mean())
         stages[name] |= {"misfit_start": start, "misfit_end": end}
         attempts.append((end, copy.deepcopy(net.state_dict()), name, fit, losses))
-        if end <= start:
+        if end <= start or (stop and stop(fit.heldout_history)):
             break
         log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", name, start, end,
                     "rerunning it from its start at half the rates" if attempt < optim.retries
@@ -324,12 +327,13 @@ def reconstruct(
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
     replay = copy.deepcopy(prob.rng), copy.deepcopy(prob.starts_rng), torch.get_rng_state()  # the first pass's streams
 
-    def first_pass(conf: ModelConf, prefix: str, on: _Problem) -> tuple[Field, SinogramFit, np.ndarray, int]:
+    def first_pass(conf: ModelConf, prefix: str, on: _Problem,
+                   stop: Callable[[list[tuple[int, float]]], bool] | None = None) -> tuple[Field, SinogramFit, np.ndarray, int]:
         with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
             torch.manual_seed(seed)
             net = build_field(conf, n_objects, torch.Generator().manual_seed(seed))
         fit, checked, start = _fit_pass(on, net, prefix, (optim.init_steps, optim.fit_steps), optim, render,
-                                        starts, stages, optim.coarse_size)
+                                        starts, stages, optim.coarse_size, stop)
         return net, fit, checked, start
 
     def fit_rung(n_terms: int) -> Rung:
@@ -341,12 +345,18 @@ def reconstruct(
     net, fit, checked, start = fitted[chosen.n_terms]
     band = None
     if capacity.tries_band(model.f_max, rotations_spanned(sino), chosen.n_terms, len(held_views) > 0):
-        # Run as a first pass at the wider band would (same streams), so a kept band is that run.
+        # Run as a first pass at the wider band would (same streams), so a kept band is that run;
+        # it races the configured fit's held-out history and stops where it falls behind.
+        def race(history: list[tuple[int, float]]) -> dict | None:
+            return capacity.band_race(history, fit.heldout_history, optim.fit_steps)
+
         with torch.random.fork_rng():
             torch.set_rng_state(replay[2])
             wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), "band_",
-                              replace(prob, rng=replay[0], starts_rng=replay[1]))
-        band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])))
+                              replace(prob, rng=replay[0], starts_rng=replay[1]),
+                              lambda history: bool((race(history) or {}).get("lost")))
+        band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])),
+                                    race(wide[1].heldout_history))
         log.info("temporal band: %s: keeping F_max %g", band["reason"], band["kept_f_max"])
         if band["kept_f_max"] != model.f_max:
             (net, fit, checked, start), model = wide, replace(model, f_max=capacity.band_f_max)

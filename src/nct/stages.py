@@ -12,7 +12,7 @@ import logging
 import math
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -100,6 +100,7 @@ class FieldStage(L.LightningModule):
         self.grid = grid
         self.optim = optim
         self.lattice = min(lattice or grid.size, grid.size)
+        self.heldout_history: list[tuple[int, float]] = []  # (step, val/heldout_loss) at each validation
 
     def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
         """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt [T, K, P] in FOV sides per
@@ -234,7 +235,9 @@ class SinogramFit(FieldStage):
         self._held_count += batch.numel() * self.values.shape[1]
 
     def on_validation_epoch_end(self) -> None:
-        self.log("val/heldout_loss", self._held_sum / max(1, self._held_count))
+        held = self._held_sum / max(1, self._held_count)
+        self.heldout_history.append((int(self.global_step), held))
+        self.log("val/heldout_loss", held)
 
 
 class IndexBatches(IterableDataset):
@@ -278,6 +281,18 @@ class MinLossStop(Callback):
 
     def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
         if self.min_loss > 0 and float(outputs["sinogram"]) < self.min_loss:
+            trainer.should_stop = True
+
+
+class HeldoutStop(Callback):
+    """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
+    [(step, loss)] so far (a race of one fit against another's losses at the same steps)."""
+
+    def __init__(self, stops: Callable[[list[tuple[int, float]]], bool]) -> None:
+        self.stops = stops
+
+    def on_validation_end(self, trainer, pl_module) -> None:
+        if self.stops(pl_module.heldout_history):
             trainer.should_stop = True
 
 
@@ -460,7 +475,9 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
             raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
                              f"({detail}); rerun it in a new folder") from None
         log.info("resume: stage %s loaded from %s", name, folder)
-        return json.loads((folder / RECORD).read_text()) | {"resumed": True}
+        record = json.loads((folder / RECORD).read_text())
+        module.heldout_history = [(int(step), float(loss)) for step, loss in record.get("heldout_history", [])]
+        return record | {"resumed": True}
     every = check_every if data.held else 0
     callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
     bar = show_bar(conf.progress_bar)
@@ -487,6 +504,8 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith(("train/", "val/"))}
     result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    if module.heldout_history:
+        result["heldout_history"] = [list(point) for point in module.heldout_history]
     if folder is not None:
         (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
     if not bar:

@@ -1,0 +1,81 @@
+"""What the band race (``capacity.band_race_at``, ``band_race_gain``) decides on a generalisation
+call's runs, from the held-out history of both first passes, and the band fit time it saves.
+
+Each run that tried the temporal band holds the held-out loss of the configured fit and of the
+wider band's fit at every check (``metrics.json`` -> ``stages`` -> ``heldout_history``; for runs
+made before that record existed, their ``logger=csv`` logs). A band fit the race stops leaves the
+run bit for bit as without the band, and one it lets go on is not touched, so the race's outcome
+on a call whose bands all ran to the end follows from these histories alone. Written by hand: no
+library replays a stopping rule on logged curves.
+
+    python benchmarks/band_race.py --call outputs/benchmarks/gen_seed1 --at 0.2 0.3 0.4 --gain 0.8 0.9 1.0
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from dataclasses import replace
+from pathlib import Path
+
+from nct.capacity import CapacityConf
+
+History = list[tuple[int, float]]
+
+
+def kept_fit(stages: dict, prefix: str) -> str:
+    """The name of a pass's kept SinogramFit attempt (``fit``, ``fit_retry1``, ...)."""
+    return next(name for name, s in stages.items() if name.startswith(prefix + "fit") and s.get("kept"))
+
+
+def history(run: Path, stages: dict, name: str) -> History:
+    """Stage ``name``'s held-out history: its record's, else its CSV log's (Lightning logs a
+    validation at the step before the one the stage counts)."""
+    if "heldout_history" in stages[name]:
+        return [(int(step), float(loss)) for step, loss in stages[name]["heldout_history"]]
+    with (run / "csv" / name / "metrics.csv").open() as f:
+        return [(int(r["step"]) + 1, float(r["val/heldout_loss"])) for r in csv.DictReader(f) if r["val/heldout_loss"]]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--call", type=Path, required=True, help="a generalisation.py --out folder")
+    parser.add_argument("--at", type=float, nargs="+", default=[CapacityConf().band_race_at])
+    parser.add_argument("--gain", type=float, nargs="+", default=[CapacityConf().band_race_gain])
+    args = parser.parse_args(argv)
+    runs = []
+    for metrics in sorted(args.call.glob("runs/*/nct/metrics.json")):
+        m = json.loads(metrics.read_text())
+        band = m.get("capacity", {}).get("band")
+        if not band:
+            continue
+        stages, run = m["stages"], metrics.parent
+        ours, wide = (history(run, stages, kept_fit(stages, p)) for p in ("", "band_"))
+        steps = int(stages[kept_fit(stages, "band_")]["steps"])
+        band_time = sum(float(s["wall_time_s"]) for name, s in stages.items() if name.startswith("band_"))
+        runs.append((run.parent.name, ours, wide, steps, band["kept_f_max"] != band["f_max"][0],
+                     float(stages[kept_fit(stages, "band_")]["wall_time_s"]), band_time))
+    print(f"{len(runs)} runs tried the band; each line: the wider fit's held-out loss over the configured fit's "
+          "at each check, and whether the band was kept")
+    for scene, ours, wide, _, kept, _, _ in runs:
+        mine = dict(ours)
+        print(f"  {scene}: " + " ".join(f"{loss / mine[step]:.2f}" for step, loss in wide if step in mine)
+              + ("  kept" if kept else ""))
+    print("| race_at | race_gain | band fits stopped | at steps | kept bands stopped | saved of the band passes' time |")
+    print("|---|---|---|---|---|---|")
+    for at in args.at:
+        for gain in args.gain:
+            conf = replace(CapacityConf(), band_race_at=at, band_race_gain=gain)
+            races = [(scene, conf.band_race(wide, ours, steps), steps, kept, t)
+                     for scene, ours, wide, steps, kept, t, _ in runs]
+            lost = [(scene, r["step"], steps, kept, t) for scene, r, steps, kept, t in races if r and r["lost"]]
+            saved = sum((1 - step / steps) * t for _, step, steps, _, t in lost)
+            total = sum(run[-1] for run in runs)
+            print(f"| {at:g} | {gain:g} | {len(lost)}/{len(runs)} | {', '.join(str(s) for _, s, *_ in lost)} | "
+                  f"{', '.join(s for s, _, _, k, _ in lost if k) or 'none'} | {saved:.0f} of {total:.0f} s |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
