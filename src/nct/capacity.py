@@ -19,7 +19,10 @@ one cycle per rotation, beyond the configured band's largest frequencies; over s
 the same angles are seen again at other times, so the held-out views expose a band too narrow.
 Most scans do not need it, so the wider fit races the configured one: from ``band_race_at`` of its
 steps on, its held-out loss is compared with the configured fit's at the same step at each check,
-and the fit stops at the first check where it is above ``band_race_gain`` of it. A fit that goes on is not touched, so a kept
+and the fit stops at the first check where it is above ``band_race_gain`` of it. The race starts
+where the occupancy ramp has narrowed to its final width (render.band_anneal, 0.6): before that
+the held-out score, taken at the final width, compares fields fitted at another, and a band that
+ends well ahead was seen behind at 30 % of its steps (benchmarks/results/generalisation/race). A fit that goes on is not touched, so a kept
 band is still the run configured at ``band_f_max``, bit for bit.
 """
 
@@ -59,7 +62,7 @@ class CapacityConf:
     band_f_max: Optional[float] = 0.5
     band_gain: float = 0.6
     band_min_rotations: float = 1.5
-    band_race_at: Optional[float] = 0.3
+    band_race_at: Optional[float] = 0.6
     band_race_gain: float = 0.9
 
     def __post_init__(self) -> None:
