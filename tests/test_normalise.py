@@ -17,7 +17,11 @@ from nct.method_conf import LossConf
 from tiny_fits import INIT, MODEL, TRAINER, moving_disc
 from tiny_fits import OPTIM as SHORT
 
-OPTIM = replace(SHORT, init_steps=40, fit_steps=60, lr_decay_every=30)
+# The default schedule's shape, shortened: ten decays over the fit, so it ends at about 2 % of its rate
+# as a default run does. Decaying every 30 of 60 steps ended at 42 %, in a noisy phase where a
+# rounding difference of 1e-7 (the units' rescaling) moved the held-out loss from 0.025 to 0.043
+# and the Dice by 0.016 (a fresh environment, one thread).
+OPTIM = replace(SHORT, init_steps=40, fit_steps=60, lr_decay_every=6)
 
 
 @pytest.fixture(scope="module")
