@@ -23,6 +23,9 @@ VARIANTS = {  # each in units of its own (normalise.py): the export maps back li
     "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", "image.extent=1.5"],
     # the static rung is chosen (4 terms would have to lower the held-out loss by 99 %), not the last fitted
     "auto": ["capacity=auto", "capacity.ladder=[0,4]", "capacity.tolerance=0.99", "phantom.intensity=3.0"],
+    # two rotations (of half the time: the same 0.25 s): the wider temporal band is fitted too, and
+    # (gain 0.01) never kept
+    "band": ["scanner.rotations=2", "scanner.rotation_time=0.125", "capacity.band_gain=0.01", "image.extent=1.5"],
 }
 
 
@@ -125,8 +128,10 @@ def test_rebuilt_field_is_the_checkpoints(run):
     torch.testing.assert_close(drawn.omega, fitted.field.omega, rtol=0, atol=0)
     if cfg.capacity.auto:
         assert fitted.checkpoint.parent.name == "m0_fit" and (run / "checkpoints" / "m4_fit").is_dir()
-    else:
+    elif cfg.optim.refine:
         assert fitted.checkpoint.parent.name == "refine_fit"
+    else:  # the band was fitted after the configured pass and not kept
+        assert fitted.checkpoint.parent.name == "fit" and (run / "checkpoints" / "band_fit").is_dir()
 
 
 def test_fbp_only_run_is_refused(fbp_run, capsys):

@@ -87,6 +87,15 @@ def rotations_spanned(sino: Sinogram) -> float:
     return float(rotations_since_start(sino)(sino.times).max())
 
 
+BAND_PREFIX = "band_"  # the stages of the first pass at the wider temporal band
+
+
+def pass_prefix(n_terms: int, auto: bool, band: bool = False) -> str:
+    """The stage names' prefix of a first pass: the wider band's, a ladder rung's (``m<M>_``,
+    with ``capacity.auto``) or none; the pass's stages are ``<prefix>init*`` and ``<prefix>fit*``."""
+    return BAND_PREFIX if band else f"m{n_terms}_" if auto else ""
+
+
 def split_views(n_views: int, every: int, run: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the fitted and the held-out views: runs of ``run`` consecutive views, every
     ``every``-th run held out (the middle one of each ``every`` runs)."""
@@ -338,7 +347,7 @@ def reconstruct(
 
     def fit_rung(n_terms: int) -> Rung:
         fitted[n_terms] = net, _, checked, _ = first_pass(replace(model, n_terms=n_terms),
-                                                          f"m{n_terms}_" if capacity.auto else "", prob)
+                                                          pass_prefix(n_terms, capacity.auto), prob)
         return Rung(n_terms, _mean_or_nan(_held_losses(prob, checked)), net.describe()["n_params"])
 
     tried, chosen = climb(capacity.ladder if capacity.auto else [model.n_terms], fit_rung, capacity.tolerance)
@@ -352,7 +361,7 @@ def reconstruct(
 
         with torch.random.fork_rng():
             torch.set_rng_state(replay[2])
-            wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), "band_",
+            wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), BAND_PREFIX,
                               replace(prob, rng=replay[0], starts_rng=replay[1]),
                               lambda history: bool((race(history) or {}).get("lost")))
         band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])),

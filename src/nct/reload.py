@@ -21,7 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from nct.errors import InputError
 from nct.fields import Field, build_field
 from nct.io import load_sinogram
-from nct.method import field_frames, rotations_since_start
+from nct.method import field_frames, pass_prefix, rotations_since_start
 from nct.method_conf import ModelConf, OptimConf, RenderConf
 from nct.normalise import Units
 from nct.render import intensity
@@ -72,12 +72,13 @@ def _read_json(path: Path) -> dict:
     return json.loads(path.read_text())
 
 
-def _checkpoint(run_dir: Path, stages: dict, n_terms: int, auto: bool) -> Path:
-    """The last saved stage checkpoint of the chosen field: the refinement's if any, else the first
-    pass's (with ``capacity.auto``, the chosen rung's ``m<M>_`` stages); a fit attempt that was
-    not kept (``method._fit_pass``) is skipped."""
-    prefix = f"m{n_terms}_" if auto else ""
-    ours = [s for s, record in stages.items() if s.startswith(("refine_", prefix)) and record.get("kept", True)]
+def _checkpoint(run_dir: Path, stages: dict, n_terms: int, auto: bool, band: bool) -> Path:
+    """The last saved stage checkpoint of the chosen field: the refinement's if any, else the kept
+    first pass's (``method.pass_prefix``: the chosen rung's with ``capacity.auto``, the wider
+    band's where it was kept); a fit attempt that was not kept (``method._fit_pass``) is skipped."""
+    prefix = pass_prefix(n_terms, auto, band)
+    ours = [s for s, record in stages.items()
+            if s.startswith(("refine_", prefix + "init", prefix + "fit")) and record.get("kept", True)]
     saved = [run_dir / "checkpoints" / s / "last.ckpt" for s in ours]
     saved = [p for p in saved if p.is_file()]
     if not saved:
@@ -102,7 +103,8 @@ def load_run(run_dir: Path) -> FittedRun:
     n_terms = int(metrics["capacity"]["n_terms"])
     model: ModelConf = replace(_typed(ModelConf, cfg.model), n_terms=n_terms)
     auto = bool(cfg.capacity.auto)
-    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto)
+    band = metrics["capacity"].get("band")
+    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto, bool(band and band["kept_f_max"] != band["f_max"][0]))
     # The run's own construction (method.reconstruct): its seed draws the frequencies; every
     # tensor, the frequencies ``omega`` included, is then restored from the checkpoint.
     net = build_field(model, len(metrics["intensities"]), torch.Generator().manual_seed(int(cfg.seed)))
