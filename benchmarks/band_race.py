@@ -19,7 +19,10 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
+import statistics
+
 from nct.capacity import CapacityConf
+from nct.method import BAND_PREFIX
 
 History = list[tuple[int, float]]
 
@@ -51,31 +54,37 @@ def main(argv: list[str] | None = None) -> int:
         if not band:
             continue
         stages, run = m["stages"], metrics.parent
-        ours, wide = (history(run, stages, kept_fit(stages, p)) for p in ("", "band_"))
+        ours, wide = (history(run, stages, kept_fit(stages, p)) for p in ("", BAND_PREFIX))
         steps = int(stages[kept_fit(stages, "")]["steps"])  # the configured fit ran them all; a raced band fit may not
-        band_time = sum(float(s["wall_time_s"]) for name, s in stages.items() if name.startswith("band_"))
-        fit = stages[kept_fit(stages, "band_")]
+        band_time = sum(float(s["wall_time_s"]) for name, s in stages.items() if name.startswith(BAND_PREFIX))
+        fit = stages[kept_fit(stages, BAND_PREFIX)]
         # Time a rule could save: only that of a band fit that ran to the end (a raced one stopped already).
         full = float(fit["wall_time_s"]) if int(fit["steps"]) == steps else 0.0
-        runs.append((run.parent.name, ours, wide, steps, band["kept_f_max"] != band["f_max"][0], full, band_time))
+        runs.append((run.parent.name, ours, wide, steps, band["kept_f_max"] != band["f_max"][0], full, band_time,
+                     float(m["wall_time_s"])))
     print(f"{len(runs)} runs tried the band; each line: the wider fit's held-out loss over the configured fit's "
           "at each check, and whether the band was kept")
-    for scene, ours, wide, _, kept, _, _ in runs:
+    for scene, ours, wide, _, kept, *_ in runs:
         mine = dict(ours)
         print(f"  {scene}: " + " ".join(f"{loss / mine[step]:.2f}" for step, loss in wide if step in mine)
               + ("  kept" if kept else ""))
-    print("| race_at | race_gain | band fits stopped | at steps | kept bands stopped | saved of the band passes' time |")
-    print("|---|---|---|---|---|---|")
+    print("| race_at | race_gain | band fits stopped | at steps | kept bands stopped | saved of the band passes' time "
+          "| run / run without the band, median: as run -> with this rule |")
+    print("|---|---|---|---|---|---|---|")
     for at in args.at:
         for gain in args.gain:
             conf = replace(CapacityConf(), band_race_at=at, band_race_gain=gain)
-            races = [(scene, conf.band_race(wide, ours, steps), steps, kept, t)
-                     for scene, ours, wide, steps, kept, t, _ in runs]
-            lost = [(scene, r["step"], steps, kept, t) for scene, r, steps, kept, t in races if r and r["lost"]]
-            saved = sum((1 - step / steps) * t for _, step, steps, _, t in lost)
-            total = sum(run[-1] for run in runs)
-            print(f"| {at:g} | {gain:g} | {len(lost)}/{len(runs)} | {', '.join(str(s) for _, s, *_ in lost)} | "
-                  f"{', '.join(s for s, _, _, k, _ in lost if k) or 'none'} | {saved:.0f} of {total:.0f} s |")
+            cut, before, after, lost = [], [], [], []
+            for scene, ours, wide, steps, kept, full, band_time, run_time in runs:
+                race = conf.band_race(wide, ours, steps)
+                stopped = bool(race and race["lost"])
+                cut.append((1 - race["step"] / steps) * full if stopped else 0.0)
+                lost += [(scene, race["step"], kept)] if stopped else []
+                before.append(run_time / (run_time - band_time))
+                after.append((run_time - cut[-1]) / (run_time - band_time))
+            print(f"| {at:g} | {gain:g} | {len(lost)}/{len(runs)} | {', '.join(str(s) for _, s, _ in lost)} | "
+                  f"{', '.join(s for s, _, k in lost if k) or 'none'} | {sum(cut):.0f} of "
+                  f"{sum(r[6] for r in runs):.0f} s | {statistics.median(before):.2f} -> {statistics.median(after):.2f} |")
     return 0
 
 

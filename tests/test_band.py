@@ -157,10 +157,12 @@ def test_band_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
         folder = tmp_path / "call" / "runs" / scene / "nct"
         folder.mkdir(parents=True)
         band = {"f_max": [0.3, 0.5], "kept_f_max": 0.5 if kept else 0.3}
-        (folder / "metrics.json").write_text(json.dumps({"stages": stages, "capacity": {"band": band}}))
+        (folder / "metrics.json").write_text(json.dumps({"stages": stages, "capacity": {"band": band},
+                                                          "wall_time_s": 40.0}))
 
     run("ahead", [0.2, 0.09, 0.05, 0.05, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04], kept=True)
     run("behind", [0.2, 0.09, 0.08, 0.095, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], kept=False)
     assert load("band_race").main(["--call", str(tmp_path / "call"), "--at", "0.3", "--gain", "0.9"]) == 0
-    # "behind" is ahead at 300 (0.8) and behind at 400 (0.95): stopped there, saving 60 % of its 10 s fit.
-    assert "| 0.3 | 0.9 | 1/2 | 400 | none | 6 of 30 s |" in capsys.readouterr().out
+    # "behind" is ahead at 300 (0.8) and behind at 400 (0.95): stopped there, saving 60 % of its 10 s fit;
+    # each run is 40 s, 25 s of it without the band: 1.6x, and 34 / 25 = 1.36x for "behind".
+    assert "| 0.3 | 0.9 | 1/2 | 400 | none | 6 of 30 s | 1.60 -> 1.48 |" in capsys.readouterr().out

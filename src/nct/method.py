@@ -30,8 +30,8 @@ from nct.sdf import binarise, masks_to_sdf
 from nct.segment import Segmentation, segmentations
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.stages import (LOGGERS, FieldStage, HeldoutStop, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit,
-                        Snapshot, SnapshotLog, Views, run_stage, snapshot)
+from nct.stages import (LOGGERS, FieldStage, HeldoutHistory, HeldoutStop, IndexDataModule, InitFit, MinLossStop,
+                        RunClock, SinogramFit, Snapshot, SnapshotLog, Views, run_stage, snapshot)
 
 log = logging.getLogger(__name__)
 
@@ -148,7 +148,7 @@ class Start:
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
               render: RenderConf, starts: list[Start], stages: dict, lattice: int | None = None,
-              stop: Callable[[list[tuple[int, float]]], bool] | None = None) -> tuple[SinogramFit, np.ndarray, int]:
+              stop: Callable[[HeldoutHistory], bool] | None = None) -> tuple[SinogramFit, np.ndarray, int]:
     """One pass: InitFit to each start's SDF targets, then SinogramFit from the start whose field
     misfits the ``_check_views`` least, the field on a ``lattice``^2 lattice (None: the grid's);
     records the stages in ``stages``. A SinogramFit whose misfit ends above where it started is
@@ -337,7 +337,7 @@ def reconstruct(
     replay = copy.deepcopy(prob.rng), copy.deepcopy(prob.starts_rng), torch.get_rng_state()  # the first pass's streams
 
     def first_pass(conf: ModelConf, prefix: str, on: _Problem,
-                   stop: Callable[[list[tuple[int, float]]], bool] | None = None) -> tuple[Field, SinogramFit, np.ndarray, int]:
+                   stop: Callable[[HeldoutHistory], bool] | None = None) -> tuple[Field, SinogramFit, np.ndarray, int]:
         with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
             torch.manual_seed(seed)
             net = build_field(conf, n_objects, torch.Generator().manual_seed(seed))
@@ -356,14 +356,16 @@ def reconstruct(
     if capacity.tries_band(model.f_max, rotations_spanned(sino), chosen.n_terms, len(held_views) > 0):
         # Run as a first pass at the wider band would (same streams), so a kept band is that run;
         # it races the configured fit's held-out history and stops where it falls behind.
-        def race(history: list[tuple[int, float]]) -> dict | None:
+        def race(history: HeldoutHistory) -> dict | None:
             return capacity.band_race(history, fit.heldout_history, optim.fit_steps)
+
+        def behind(history: HeldoutHistory) -> bool:
+            return (race(history) or {}).get("lost", False)
 
         with torch.random.fork_rng():
             torch.set_rng_state(replay[2])
             wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), BAND_PREFIX,
-                              replace(prob, rng=replay[0], starts_rng=replay[1]),
-                              lambda history: bool((race(history) or {}).get("lost")))
+                              replace(prob, rng=replay[0], starts_rng=replay[1]), behind)
         band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])),
                                     race(wide[1].heldout_history))
         log.info("temporal band: %s: keeping F_max %g", band["reason"], band["kept_f_max"])

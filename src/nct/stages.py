@@ -35,6 +35,7 @@ from nct.render import intensity, project_frames
 from nct.scanner import ImageGrid
 
 log = logging.getLogger(__name__)
+HeldoutHistory = list[tuple[int, float]]  # (step, val/heldout_loss) at each held-out check of a SinogramFit
 RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ class FieldStage(L.LightningModule):
         self.grid = grid
         self.optim = optim
         self.lattice = min(lattice or grid.size, grid.size)
-        self.heldout_history: list[tuple[int, float]] = []  # (step, val/heldout_loss) at each validation
+        self.heldout_history: HeldoutHistory = []
 
     def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
         """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt [T, K, P] in FOV sides per
@@ -288,7 +289,7 @@ class HeldoutStop(Callback):
     """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
     [(step, loss)] so far (a race of one fit against another's losses at the same steps)."""
 
-    def __init__(self, stops: Callable[[list[tuple[int, float]]], bool]) -> None:
+    def __init__(self, stops: Callable[[HeldoutHistory], bool]) -> None:
         self.stops = stops
 
     def on_validation_end(self, trainer, pl_module) -> None:
