@@ -20,6 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import statistics
+import sys
 
 from nct.capacity import CapacityConf
 from nct.method import BAND_PREFIX
@@ -62,6 +63,9 @@ def main(argv: list[str] | None = None) -> int:
         full = float(fit["wall_time_s"]) if int(fit["steps"]) == steps else 0.0
         runs.append((run.parent.name, ours, wide, steps, band["kept_f_max"] != band["f_max"][0], full, band_time,
                      float(m["wall_time_s"])))
+    if not runs:
+        print(f"band_race: error: no finished run in {args.call}/runs tried the temporal band", file=sys.stderr)
+        return 1
     print(f"{len(runs)} runs tried the band; each line: the wider fit's held-out loss over the configured fit's "
           "at each check, and whether the band was kept")
     for scene, ours, wide, _, kept, *_ in runs:
