@@ -45,6 +45,7 @@ def test_method_groups_keep_the_tuned_defaults():
     r = conf.render
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share, conf.init.starts) == (60, 3, 0.02, 2)
+    assert (conf.init.race_at, conf.init.race_gain) == (0.2, 1.0)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
     assert not conf.capacity.auto and conf.capacity.static_below_px == 0.0
@@ -106,6 +107,8 @@ def test_composition_errors_name_the_key(override, error, words):
         ("init.gmm_share=0", "init.gmm_share must be in (0, 1]"),
         ("init.frames_per_rotation=0", "init.frames_per_rotation must be >= 1"),
         ("init.starts=0", "init.starts must be >= 1"),
+        ("init.race_at=1.5", "init.race_at must be in (0, 1) or null, got 1.5"),
+        ("init.race_gain=0", "init.race_gain must be > 0"),
         ("heldout.every=-1", "heldout.every must be >= 0"),
         ("heldout.run=0", "heldout.run must be >= 1"),
         ("trainer.devices=0", "trainer.devices must be >= 1"),

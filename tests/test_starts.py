@@ -57,8 +57,9 @@ def test_a_wrong_best_judged_start_is_overruled_by_the_heldout_views(bright_and_
     one = run(sino, times, 1, wrong_first, monkeypatch)
     two = run(sino, times, 2, wrong_first, monkeypatch)
     assert one.init["start"] == 0 and list(one.stages) == ["init", "fit"]
-    assert two.init["start"] == 1 and list(two.stages) == ["init", "init_start1", "fit"]
+    assert two.init["start"] == 1 and list(two.stages) == ["init", "init_start1", "fit", "fit_start0"]
     assert not two.stages["init"]["kept"] and two.stages["init_start1"]["kept"]
+    assert two.stages["fit"]["kept"] and not two.stages["fit_start0"]["kept"]
     assert two.stages["init_start1"]["misfit"] < 0.5 * two.stages["init"]["misfit"]
     # The faint object exists only in the run that started on it.
     mse = {n: float(np.mean((r.frames - sino.truth.frames) ** 2)) for n, r in (("one", one), ("two", two))}
@@ -74,6 +75,41 @@ def test_more_starts_leave_a_run_whose_best_start_wins_bit_identical(bright_and_
     assert two.init["start"] == 0 and two.stages["init"]["kept"] and not two.stages["init_start1"]["kept"]
     np.testing.assert_array_equal(two.frames, one.frames)
     np.testing.assert_array_equal(two.intensities, one.intensities)
+
+
+def test_a_runner_up_that_fits_better_wins_the_race(bright_and_faint, monkeypatch):
+    """The right masks with a(k) 1.6x too bright misfit more after InitFit than the split start,
+    so the split one leads; the sinogram fit corrects a(k), and the runner-up ends far lower."""
+    sino, times = bright_and_faint
+    bright = lambda seg: replace(seg, intensities=np.asarray(seg.intensities) * 1.6)  # noqa: E731
+    split_leads = lambda ranked: [split_first(ranked[0]), bright(ranked[0])]  # noqa: E731
+    one = run(sino, times, 1, split_leads, monkeypatch)
+    two = run(sino, times, 2, split_leads, monkeypatch)
+    assert two.stages["init"]["misfit"] < two.stages["init_start1"]["misfit"]  # the split start leads
+    assert list(two.stages) == ["init", "init_start1", "fit", "fit_start1"]
+    race = two.stages["fit_start1"]["race"]
+    assert not two.stages["fit_start1"]["stopped"] and not race["lost"] and race["step"] >= 0.2 * LONGER.fit_steps
+    assert two.init["start"] == 1 and two.stages["fit_start1"]["kept"] and two.stages["init_start1"]["kept"]
+    assert not two.stages["fit"]["kept"] and not two.stages["init"]["kept"]
+    assert two.stages["fit_start1"]["misfit_end"] < 0.7 * two.stages["fit"]["misfit_end"]
+    assert two.heldout_loss == pytest.approx(two.stages["fit_start1"]["misfit_end"])
+    mse = {n: float(np.mean((r.frames - sino.truth.frames) ** 2)) for n, r in (("one", one), ("two", two))}
+    assert mse["two"] < 0.5 * mse["one"], mse
+    # With no race the leader is kept, bit for bit the one-start run.
+    off = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none", n_objects=2,
+                      optim=LONGER, init=replace(INIT, starts=2, race_at=None))
+    assert list(off.stages) == ["init", "init_start1", "fit"]
+    np.testing.assert_array_equal(off.frames, one.frames)
+
+
+def test_a_runner_up_behind_the_leader_stops_at_the_first_check_it_is_due(bright_and_faint, monkeypatch):
+    sino, times = bright_and_faint
+    right_first = lambda ranked: [ranked[0], split_first(ranked[0])]  # noqa: E731
+    two = run(sino, times, 2, right_first, monkeypatch)
+    challenger = two.stages["fit_start1"]
+    assert challenger["stopped"] and challenger["race"]["lost"] and not challenger["kept"]
+    first_due = min(step for step, _ in challenger["heldout_history"] if step >= 0.2 * LONGER.fit_steps)
+    assert challenger["race"]["step"] == first_due == challenger["heldout_history"][-1][0] < LONGER.fit_steps
 
 
 def test_one_object_starts_once():

@@ -36,6 +36,7 @@ import numpy as np
 from skimage.measure import perimeter
 
 from nct.errors import require
+from nct.race import HeldoutHistory, race
 
 
 @dataclass
@@ -90,23 +91,10 @@ class CapacityConf:
         """Whether the wider band's held-out loss ``wider`` is low enough against ``configured``'s."""
         return wider <= self.band_gain * configured
 
-    def band_race(self, wider: list[tuple[int, float]], configured: list[tuple[int, float]],
-                  steps: int) -> dict | None:
-        """The race of the wider fit's held-out history [(step, loss)] against the configured
-        fit's, at each check from ``band_race_at`` x ``steps`` until before the last step: the
-        first check where the wider fit's loss is above ``band_race_gain`` x the configured one's
-        (lost), else the latest (not lost so far), with its step and both losses; None before the
-        first such check, or with no race."""
-        if self.band_race_at is None:
-            return None
-        ours = dict(configured)
-        due = [(step, ours[step], loss) for step, loss in wider
-               if self.band_race_at * steps <= step < steps and step in ours]
-        if not due:
-            return None
-        step, at, loss = next((d for d in due if d[2] > self.band_race_gain * d[1]), due[-1])
-        return {"step": step, "heldout_loss": [at, loss], "gain": self.band_race_gain,
-                "lost": loss > self.band_race_gain * at}
+    def band_race(self, wider: HeldoutHistory, configured: HeldoutHistory, steps: int) -> dict | None:
+        """The race (race.py) of the wider fit's held-out history against the configured fit's, from
+        ``band_race_at`` of the ``steps`` with ``band_race_gain``."""
+        return race(wider, configured, steps, self.band_race_at, self.band_race_gain)
 
     def band_choice(self, f_max: float, configured: float, wider: float, race: dict | None = None) -> dict:
         """The band kept after first passes at ``f_max`` and at ``band_f_max`` with those held-out

@@ -30,7 +30,8 @@ from nct.sdf import binarise, masks_to_sdf
 from nct.segment import Segmentation, segmentations
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.stages import (LOGGERS, FieldStage, HeldoutHistory, HeldoutStop, IndexDataModule, InitFit, MinLossStop,
+from nct.race import HeldoutHistory, race
+from nct.stages import (LOGGERS, FieldStage, HeldoutStop, IndexDataModule, InitFit, MinLossStop,
                         RunClock, SinogramFit, Snapshot, SnapshotLog, Views, run_stage, snapshot)
 
 log = logging.getLogger(__name__)
@@ -148,14 +149,18 @@ class Start:
 
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
               render: RenderConf, starts: list[Start], stages: dict, lattice: int | None = None,
-              stop: Callable[[HeldoutHistory], bool] | None = None) -> tuple[SinogramFit, np.ndarray, int]:
+              stop: Callable[[HeldoutHistory], bool] | None = None,
+              start_race: Callable[[HeldoutHistory, HeldoutHistory], dict | None] | None = None,
+              ) -> tuple[SinogramFit, np.ndarray, int]:
     """One pass: InitFit to each start's SDF targets, then SinogramFit from the start whose field
-    misfits the ``_check_views`` least, the field on a ``lattice``^2 lattice (None: the grid's);
-    records the stages in ``stages``. A SinogramFit whose misfit ends above where it started is
-    rerun from the InitFit's field at half the rates (``optim.retries``) and the attempt with the
-    lowest misfit kept. ``stop``: SinogramFit ends after a held-out check where it says so from the
-    held-out history, and is not rerun. Returns the fit, its misfit on each check view [c] and the
-    start's index."""
+    misfits the ``_check_views`` least (the leader), the field on a ``lattice``^2 lattice (None: the
+    grid's); records the stages in ``stages``. A SinogramFit whose misfit ends above where it started
+    is rerun from the InitFit's field at half the rates (``optim.retries``) and the attempt with the
+    lowest misfit kept. ``start_race`` (race.py's rule, from the challenger's and the leader's
+    held-out histories): each other start's SinogramFit runs too, stops where the rule says it lost,
+    and is kept where it ends with a lower misfit than the leader's (None: the leader only).
+    ``stop``: a SinogramFit ends after a held-out check where it says so from the held-out history,
+    and is not rerun. Returns the fit, its misfit on each check view [c] and the kept start's index."""
     init_steps, fit_steps = steps
     check = torch.from_numpy(_check_views(prob))
 
@@ -165,6 +170,16 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
 
     def init_name(n: int) -> str:
         return prefix + "init" + (f"_start{n}" if n else "")
+
+    def fit_stage(fit: SinogramFit, name: str, stream: np.random.Generator,
+                  stops: Callable[[HeldoutHistory], bool] | None) -> tuple[float, np.ndarray]:
+        stages[name] = run_stage(
+            fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(stream), prob.held_views),
+            fit_steps, name, prob.trainer, prob.log_dir, prob.logger,
+            (MinLossStop(optim.min_loss), *_snapshot_log(prob, name), *([HeldoutStop(stops)] if stops else [])),
+            prob.check_every, prob.resume)
+        losses = fit.view_losses(check)
+        return float(losses.mean()), losses
 
     weights = copy.deepcopy(net.state_dict())
     tried: list[tuple[float, dict, SinogramFit]] = []
@@ -183,35 +198,48 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         misfit = float(fit.view_losses(check).mean())
         stages[name]["misfit"] = misfit
         tried.append((misfit, copy.deepcopy(net.state_dict()), fit))
-    chosen = min(range(len(tried)), key=lambda n: tried[n][0])
-    start, started, fit = tried[chosen]  # the kept start's misfit, field and fit
-    for n in range(len(tried)):
-        stages[init_name(n)]["kept"] = n == chosen
+    order = sorted(range(len(tried)), key=lambda n: tried[n][0])
+    chosen = order[0]
+    start, started, fit = tried[chosen]  # the leader's misfit, field and fit
     if len(tried) > 1:
-        log.info("%sinit: started from candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
+        log.info("%sinit: the leader is candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
                  ", ".join(f"{m:.4g}" for m, _, _ in tried))
     net.load_state_dict(started)
-    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray]] = []
+    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray, int]] = []
     for attempt in range(optim.retries + 1):
         fit = sinogram_fit(0.5**attempt) if attempt else fit
         name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
-        stages[name] = run_stage(
-            fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(prob.rng), prob.held_views),
-            fit_steps, name, prob.trainer, prob.log_dir, prob.logger,
-            (MinLossStop(optim.min_loss), *_snapshot_log(prob, name), *([HeldoutStop(stop)] if stop else [])),
-            prob.check_every, prob.resume)
-        losses = fit.view_losses(check)
-        end = float(losses.mean())
+        end, losses = fit_stage(fit, name, prob.rng, stop)
         stages[name] |= {"misfit_start": start, "misfit_end": end}
-        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit, losses))
+        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit, losses, chosen))
         if end <= start or (stop and stop(fit.heldout_history)):
             break
         log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", name, start, end,
                     "rerunning it from its start at half the rates" if attempt < optim.retries
                     else "keeping the best attempt")
         net.load_state_dict(started)
-    _, state, kept, fit, losses = min(attempts, key=lambda a: a[0])
-    for _, _, name, _, _ in attempts:
+    leader = min(attempts, key=lambda a: a[0])
+    for n in order[1:] if start_race and len(prob.held_views) else []:
+        net.load_state_dict(tried[n][1])
+        challenger, name = tried[n][2], prefix + f"fit_start{n}"
+
+        def lost(history: HeldoutHistory) -> bool:
+            return (start_race(history, leader[3].heldout_history) or {}).get("lost", False) or bool(
+                stop and stop(history))
+
+        with torch.random.fork_rng():
+            end, losses = fit_stage(challenger, name, prob.starts_rng, lost)
+        stopped = lost(challenger.heldout_history)
+        stages[name] |= {"misfit_start": tried[n][0], "misfit_end": end, "stopped": stopped, "kept": False,
+                         "race": start_race(challenger.heldout_history, leader[3].heldout_history)}
+        log.info("%s: %s", name, f"stopped at step {challenger.global_step}, behind the leader" if stopped
+                 else f"ended at misfit {end:.4g} against the leader's {leader[0]:.4g}")
+        if not stopped:
+            attempts.append((end, copy.deepcopy(net.state_dict()), name, challenger, losses, n))
+    _, state, kept, fit, losses, chosen = min(attempts, key=lambda a: a[0])
+    for n in range(len(tried)):
+        stages[init_name(n)]["kept"] = n == chosen
+    for name in (a[2] for a in attempts):
         stages[name]["kept"] = name == kept
     net.load_state_dict(state)
     return fit, losses, chosen
@@ -336,13 +364,17 @@ def reconstruct(
     fitted: dict[int, tuple[Field, SinogramFit, np.ndarray, int]] = {}
     replay = copy.deepcopy(prob.rng), copy.deepcopy(prob.starts_rng), torch.get_rng_state()  # the first pass's streams
 
+    def start_race(challenger: HeldoutHistory, leader: HeldoutHistory) -> dict | None:
+        return race(challenger, leader, optim.fit_steps, init.race_at, init.race_gain)
+
     def first_pass(conf: ModelConf, prefix: str, on: _Problem,
                    stop: Callable[[HeldoutHistory], bool] | None = None) -> tuple[Field, SinogramFit, np.ndarray, int]:
         with torch.random.fork_rng():  # the field's weights from the seed alone, whatever ran before (resume)
             torch.manual_seed(seed)
             net = build_field(conf, n_objects, torch.Generator().manual_seed(seed))
         fit, checked, start = _fit_pass(on, net, prefix, (optim.init_steps, optim.fit_steps), optim, render,
-                                        starts, stages, optim.coarse_size, stop)
+                                        starts, stages, optim.coarse_size, stop,
+                                        start_race if init.race_at is not None else None)
         return net, fit, checked, start
 
     def fit_rung(n_terms: int) -> Rung:
@@ -356,18 +388,18 @@ def reconstruct(
     if capacity.tries_band(model.f_max, rotations_spanned(sino), chosen.n_terms, len(held_views) > 0):
         # Run as a first pass at the wider band would (same streams), so a kept band is that run;
         # it races the configured fit's held-out history and stops where it falls behind.
-        def race(history: HeldoutHistory) -> dict | None:
+        def band_race(history: HeldoutHistory) -> dict | None:
             return capacity.band_race(history, fit.heldout_history, optim.fit_steps)
 
         def behind(history: HeldoutHistory) -> bool:
-            return (race(history) or {}).get("lost", False)
+            return (band_race(history) or {}).get("lost", False)
 
         with torch.random.fork_rng():
             torch.set_rng_state(replay[2])
             wide = first_pass(replace(model, n_terms=chosen.n_terms, f_max=capacity.band_f_max), BAND_PREFIX,
                               replace(prob, rng=replay[0], starts_rng=replay[1]), behind)
         band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])),
-                                    race(wide[1].heldout_history))
+                                    band_race(wide[1].heldout_history))
         log.info("temporal band: %s: keeping F_max %g", band["reason"], band["kept_f_max"])
         if band["kept_f_max"] != model.f_max:
             (net, fit, checked, start), model = wide, replace(model, f_max=capacity.band_f_max)

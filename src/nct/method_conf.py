@@ -228,8 +228,11 @@ class InitConf:
     "gmm" (Algorithm 1 only) or "otsu" (segment.py). levels: "sinogram" (every candidate choice
     of levels is judged by how well its masks explain the fitted views, which also give a(k):
     levels.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, InitFit
-    runs from each of the judge's this many best candidates and the sinogram fit continues the one
-    whose field misfits the held-out views least (method.candidate_starts; 1: the best judged only).
+    runs from each of the judge's this many best candidates (method.candidate_starts; 1: the best
+    judged only); the sinogram fit continues the one whose field misfits the held-out views least,
+    the leader. race_at, race_gain: each runner-up's sinogram fit races the leader's (race.py): from
+    this share of its steps it stops at the first held-out check where its loss is above race_gain
+    x the leader's, and one that ends lower than the leader is kept (race_at null: the leader only).
     """
 
     frames_per_rotation: int = 60
@@ -238,6 +241,8 @@ class InitConf:
     route: str = "auto"
     levels: str = "sinogram"
     starts: int = 2
+    race_at: Optional[float] = 0.2
+    race_gain: float = 1.0
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
@@ -246,6 +251,8 @@ class InitConf:
         require(self.kappa >= 0, "init.kappa", ">= 0", self.kappa)
         require(0 < self.gmm_share <= 1, "init.gmm_share", "in (0, 1]", self.gmm_share)
         require(self.starts >= 1, "init.starts", ">= 1", self.starts)
+        require(self.race_at is None or 0 < self.race_at < 1, "init.race_at", "in (0, 1) or null", self.race_at)
+        require(self.race_gain > 0, "init.race_gain", "> 0", self.race_gain)
 
 
 @dataclass

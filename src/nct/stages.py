@@ -31,11 +31,11 @@ from nct.fields import Field, upsample
 from nct.geometry import Geometry
 from nct.method_conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.progress import StageBar, log_stage, show_bar
+from nct.race import HeldoutHistory
 from nct.render import intensity, project_frames
 from nct.scanner import ImageGrid
 
 log = logging.getLogger(__name__)
-HeldoutHistory = list[tuple[int, float]]  # (step, val/heldout_loss) at each held-out check of a SinogramFit
 RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
 
 @dataclass(frozen=True)
