@@ -1,10 +1,11 @@
 """InitFit from the judge's best candidates (``init.starts``): with K >= 2 the sinogram fit continues
-the start the held-out views prefer, and trying more starts never changes a run whose best judged
-start wins (benchmarks/results/generalisation/seed1: scene011, one object split in two and the
-other handed to the background)."""
+the start the held-out views prefer (benchmarks/results/generalisation/seed1: scene011, one object
+split in two and the other handed to the background); the runner-up's fit races it (``init.race_at``)
+and is kept where it ends lower; and trying more starts never changes a run whose leader wins."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -118,3 +119,36 @@ def test_one_object_starts_once():
     assert candidate_starts(ranked, 2, 2) == ranked[:2]
     assert candidate_starts(ranked, 3, 5) == ranked
     assert candidate_starts(ranked, 2, 1) == ranked[:1]
+
+
+def test_start_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
+    from test_generalisation import load
+
+    def run(scene: str, ratios: list[float], end: float, kept: bool) -> None:
+        steps = [100 * (i + 1) for i in range(10)]
+        stages = {"init": {"kept": not kept, "misfit": 0.2}, "init_start1": {"kept": kept, "misfit": 0.3},
+                  "fit": {"kept": not kept, "steps": 1000, "wall_time_s": 10.0, "misfit_end": 0.1,
+                          "heldout_history": [[s, 0.1] for s in steps]},
+                  "fit_start1": {"kept": kept, "steps": 1000, "wall_time_s": 10.0, "misfit_end": end,
+                                 "heldout_history": [[s, 0.1 * r] for s, r in zip(steps, ratios)]}}
+        folder = tmp_path / "call" / "runs" / scene / "nct"
+        (folder / ".hydra").mkdir(parents=True)
+        (folder / ".hydra" / "config.yaml").write_text("optim:\n  fit_steps: 1000\n")
+        (folder / "metrics.json").write_text(json.dumps({"stages": stages, "wall_time_s": 40.0}))
+
+    run("a", [1.3, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2], 0.12, kept=False)
+    run("b", [1.3, 1.1, 0.8, 0.7, 0.6, 0.6, 0.6, 0.6, 0.6, 0.6], 0.06, kept=True)
+    assert load("start_race").main(["--call", str(tmp_path / "call"), "--at", "0.2", "0.3", "--gain", "1.0"]) == 0
+    out = capsys.readouterr().out
+    # At 0.2 both stop at step 200 (80 % of each 10 s fit saved), b though it ends kept; at 0.3 only a,
+    # at 300. Each run is 40 s, 30 s of it without the runner-up.
+    assert "| 0.2 | 1 | 2/2 | b fit_start1 | 16 of 20 s | 1.33 -> 1.07 |" in out
+    assert "| 0.3 | 1 | 1/2 | none | 7 of 20 s | 1.33 -> 1.22 |" in out
+    assert "b fit_start1: 1.30 1.10 0.80" in out and "end 0.60  kept" in out
+
+
+def test_start_race_says_when_no_run_had_a_runner_up(tmp_path, capsys):
+    from test_generalisation import load
+    (tmp_path / "call" / "runs").mkdir(parents=True)
+    assert load("start_race").main(["--call", str(tmp_path / "call")]) == 1
+    assert "no finished run" in capsys.readouterr().err
