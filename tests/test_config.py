@@ -45,7 +45,7 @@ def test_method_groups_keep_the_tuned_defaults():
     r = conf.render
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share, conf.init.starts) == (60, 3, 0.02, 2)
-    assert (conf.init.race_at, conf.init.race_gain) == (0.2, 1.0)
+    assert (conf.init.race_at, conf.init.race_gain) == (0.2, 0.7)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
     assert not conf.capacity.auto and conf.capacity.static_below_px == 0.0

@@ -232,7 +232,7 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         stopped = lost(challenger.heldout_history)
         stages[name] |= {"misfit_start": tried[n][0], "misfit_end": end, "stopped": stopped, "kept": False,
                          "race": start_race(challenger.heldout_history, leader[3].heldout_history)}
-        log.info("%s: %s", name, f"stopped at step {challenger.global_step}, behind the leader" if stopped
+        log.info("%s: %s", name, f"stopped at step {challenger.global_step}: its race was lost" if stopped
                  else f"ended at misfit {end:.4g} against the leader's {leader[0]:.4g}")
         if not stopped:
             attempts.append((end, copy.deepcopy(net.state_dict()), name, challenger, losses, n))

@@ -242,7 +242,7 @@ class InitConf:
     levels: str = "sinogram"
     starts: int = 2
     race_at: Optional[float] = 0.2
-    race_gain: float = 1.0
+    race_gain: float = 0.7
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
