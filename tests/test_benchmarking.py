@@ -60,6 +60,8 @@ def test_extrapolated_time_scales_each_stage_and_keeps_the_rest():
     assert extrapolate_time(50.0, long, 5000, short) == pytest.approx(50.0 - 30.0 + 10.0 + 0.2 * 5000)
     slower_short = {"fit": {"steps": 10, "wall_time_s": 40.0}}
     assert extrapolate_time(50.0, long, 5000, slower_short) == pytest.approx(50.0 - 30.0 + 0.3 * 5000)
+    raced = stages | {"fit_start1": {"steps": 4, "planned_steps": 20, "wall_time_s": 12.0}}  # stopped at a fifth
+    assert extrapolate_time(112.0, raced, 5000) == pytest.approx(20.0 + 2.0 * 5000 + 3.0 * 5000 + 3.0 * 1000)
     assert math.isnan(extrapolate_time(100.0, {}, 5000))
     assert math.isnan(extrapolate_time(math.nan, stages, 5000))
 

@@ -111,6 +111,7 @@ def test_a_runner_up_behind_the_leader_stops_at_the_first_check_it_is_due(bright
     assert challenger["stopped"] and challenger["race"]["lost"] and not challenger["kept"]
     first_due = min(step for step, _ in challenger["heldout_history"] if step >= 0.2 * LONGER.fit_steps)
     assert challenger["race"]["step"] == first_due == challenger["heldout_history"][-1][0] < LONGER.fit_steps
+    assert challenger["steps"] == first_due and challenger["planned_steps"] == LONGER.fit_steps
 
 
 def test_one_object_starts_once():

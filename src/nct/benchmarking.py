@@ -330,9 +330,10 @@ def breakdown_point(settings: Sequence, medians: Sequence[float], threshold: flo
 
 def extrapolate_time(run_time_s: float, stages: dict, steps: int, short_stages: dict | None = None) -> float:
     """Run time if every optimisation stage ran ``steps`` steps; the time outside the stages (data, FBP,
-    segmentation, metrics) is kept as measured.
+    segmentation, metrics) is kept as measured. A stage stopped before its ``planned_steps`` (a
+    race lost) is scaled to the same share of ``steps``.
 
-    stages: metrics.json ``stages``, {name: {"steps", "wall_time_s", ...}}. short_stages: the same of
+    stages: metrics.json ``stages``, {name: {"steps", "planned_steps", "wall_time_s", ...}}. short_stages: the same of
     a run with fewer steps and otherwise the same settings: each stage's time per step is then the
     slope between the two, which leaves its fixed set-up cost out; without it (or where the slope is
     not positive) stage time / steps, an upper bound. NaN without usable stages.
@@ -349,5 +350,5 @@ def extrapolate_time(run_time_s: float, stages: dict, steps: int, short_stages: 
             slope = (t - float(short["wall_time_s"])) / (n - int(short["steps"]))
             if slope > 0:
                 per_step, fixed = slope, t - slope * n
-        total += fixed + per_step * steps - t
+        total += fixed + per_step * steps * n / int(stage.get("planned_steps", n)) - t
     return total

@@ -504,7 +504,8 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
             trainer.save_checkpoint(folder / "last.ckpt")
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith(("train/", "val/"))}
-    result = {"steps": int(trainer.global_step), "losses": losses, "wall_time_s": time.perf_counter() - start}
+    result = {"steps": int(trainer.global_step), "planned_steps": steps, "losses": losses,
+              "wall_time_s": time.perf_counter() - start}
     if module.heldout_history:
         result["heldout_history"] = [list(point) for point in module.heldout_history]
     if folder is not None:
