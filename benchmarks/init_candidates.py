@@ -1,6 +1,7 @@
 """What the initialisation saw in a sinogram file: Algorithm 1's mixture classes and every candidate
 the sinogram judge scored (``init.levels=sinogram``), best first, with the starts InitFit tries
-(``init.starts``, K >= 2; the run keeps the one its held-out views prefer: metrics.json -> init -> start).
+(``init.starts``, K >= 2; the run keeps the one its held-out views prefer, with the start race
+``init.race_at``: metrics.json -> init -> start).
 
 A diagnostic for a scene whose objects start wrong (benchmarks/results/generalisation/seed1:
 scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct``
@@ -78,17 +79,18 @@ def main() -> None:
           f"pixels {classes.count}, background class {classes.background}, foreground from {classes.lowest:.3f}")
     picked = seg.algorithm1_levels(classes, k)
     print("Algorithm 1's rule:", "fewer than K levels" if picked is None else np.round(picked, 3))
+    ranked = seg.segmentations(frames, k, rng, kappa, share, route, judge)
     if judge is not None:
-        for levels in seg.class_choices(classes, k):
-            masks, _ = seg.nest(seg.assign(frames, levels), levels)
-            misfit, a = judge(masks)
-            print(f"  classes {np.round(levels[1:], 3)}: judge misfit {misfit:.4f}, a(k) {np.round(a, 3)}, "
-                  f"pixels per frame {np.round(masks.sum(axis=(0, 2, 3)) / len(masks), 1)}")
-    tried = candidate_starts(seg.segmentations(frames, k, rng, kappa, share, route, judge), k, starts)
+        print("the candidates the judge scored, best first:")
+        for c in ranked:
+            print(f"  route {c.route}, background {c.background:.3f}: judge misfit {c.misfit:.4f}, "
+                  f"a(k) {np.round(c.intensities, 3)}, pixels per frame {np.round(c.masks.sum(axis=(0, 2, 3)) / len(c.masks), 1)}")
+    tried = candidate_starts(ranked, k, starts)
     for n, start in enumerate(tried):
         print(f"InitFit start {n}: route {start.route}, a(k) {np.round(start.intensities, 3)}, judge misfit {start.misfit}")
     if len(tried) > 1:
-        print("the run keeps the start whose field misfits the held-out views least (metrics.json -> init -> start)")
+        print("the sinogram fit continues the start whose field misfits the held-out views least (the leader); the "
+              "other's fit races it (init.race_at) and is kept where it ends lower (metrics.json -> init -> start)")
 
 
 if __name__ == "__main__":
