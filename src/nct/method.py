@@ -147,6 +147,19 @@ class Start:
     intensities: np.ndarray | None = None
 
 
+@dataclass
+class _Attempt:
+    """One SinogramFit of a pass: its stage ``name``, the start it began from, its ``misfit`` on
+    the check views at the end (mean of ``losses`` [c]) and the field's ``state`` then."""
+
+    name: str
+    start: int
+    fit: SinogramFit
+    misfit: float
+    losses: np.ndarray
+    state: dict
+
+
 def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], optim: OptimConf,
               render: RenderConf, starts: list[Start], stages: dict, lattice: int | None = None,
               stop: Callable[[HeldoutHistory], bool] | None = None,
@@ -171,15 +184,15 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     def init_name(n: int) -> str:
         return prefix + "init" + (f"_start{n}" if n else "")
 
-    def fit_stage(fit: SinogramFit, name: str, stream: np.random.Generator,
-                  stops: Callable[[HeldoutHistory], bool] | None) -> tuple[float, np.ndarray]:
+    def fit_stage(fit: SinogramFit, name: str, start: int, stream: np.random.Generator,
+                  stops: Callable[[HeldoutHistory], bool] | None) -> _Attempt:
         stages[name] = run_stage(
             fit, IndexDataModule(prob.fit_views, optim.batch_views, fit_steps, _stream(stream), prob.held_views),
             fit_steps, name, prob.trainer, prob.log_dir, prob.logger,
             (MinLossStop(optim.min_loss), *_snapshot_log(prob, name), *([HeldoutStop(stops)] if stops else [])),
             prob.check_every, prob.resume)
         losses = fit.view_losses(check)
-        return float(losses.mean()), losses
+        return _Attempt(name, start, fit, float(losses.mean()), losses, copy.deepcopy(net.state_dict()))
 
     weights = copy.deepcopy(net.state_dict())
     tried: list[tuple[float, dict, SinogramFit]] = []
@@ -205,44 +218,45 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         log.info("%sinit: the leader is candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
                  ", ".join(f"{m:.4g}" for m, _, _ in tried))
     net.load_state_dict(started)
-    attempts: list[tuple[float, dict, str, SinogramFit, np.ndarray, int]] = []
+    attempts: list[_Attempt] = []
     for attempt in range(optim.retries + 1):
         fit = sinogram_fit(0.5**attempt) if attempt else fit
-        name = prefix + "fit" + (f"_retry{attempt}" if attempt else "")
-        end, losses = fit_stage(fit, name, prob.rng, stop)
-        stages[name] |= {"misfit_start": start, "misfit_end": end}
-        attempts.append((end, copy.deepcopy(net.state_dict()), name, fit, losses, chosen))
-        if end <= start or (stop and stop(fit.heldout_history)):
+        done = fit_stage(fit, prefix + "fit" + (f"_retry{attempt}" if attempt else ""), chosen, prob.rng, stop)
+        stages[done.name] |= {"misfit_start": start, "misfit_end": done.misfit}
+        attempts.append(done)
+        if done.misfit <= start or (stop and stop(fit.heldout_history)):
             break
-        log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", name, start, end,
+        log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", done.name, start, done.misfit,
                     "rerunning it from its start at half the rates" if attempt < optim.retries
                     else "keeping the best attempt")
         net.load_state_dict(started)
-    leader = min(attempts, key=lambda a: a[0])
+    leader = min(attempts, key=lambda a: a.misfit)
+
+    def race_leader(history: HeldoutHistory) -> dict | None:
+        return start_race(history, leader.fit.heldout_history)
+
+    def lost(history: HeldoutHistory) -> bool:
+        return (race_leader(history) or {}).get("lost", False) or bool(stop and stop(history))
+
     for n in order[1:] if start_race and len(prob.held_views) else []:
         net.load_state_dict(tried[n][1])
-        challenger, name = tried[n][2], prefix + f"fit_start{n}"
-
-        def lost(history: HeldoutHistory) -> bool:
-            return (start_race(history, leader[3].heldout_history) or {}).get("lost", False) or bool(
-                stop and stop(history))
-
+        challenger = tried[n][2]
         with torch.random.fork_rng():
-            end, losses = fit_stage(challenger, name, prob.starts_rng, lost)
+            done = fit_stage(challenger, prefix + f"fit_start{n}", n, prob.starts_rng, lost)
         stopped = lost(challenger.heldout_history)
-        stages[name] |= {"misfit_start": tried[n][0], "misfit_end": end, "stopped": stopped, "kept": False,
-                         "race": start_race(challenger.heldout_history, leader[3].heldout_history)}
-        log.info("%s: %s", name, f"stopped at step {challenger.global_step}: its race was lost" if stopped
-                 else f"ended at misfit {end:.4g} against the leader's {leader[0]:.4g}")
+        stages[done.name] |= {"misfit_start": tried[n][0], "misfit_end": done.misfit, "stopped": stopped,
+                              "kept": False, "race": race_leader(challenger.heldout_history)}
+        log.info("%s: %s", done.name, f"stopped at step {challenger.global_step}: its race was lost" if stopped
+                 else f"ended at misfit {done.misfit:.4g} against the leader's {leader.misfit:.4g}")
         if not stopped:
-            attempts.append((end, copy.deepcopy(net.state_dict()), name, challenger, losses, n))
-    _, state, kept, fit, losses, chosen = min(attempts, key=lambda a: a[0])
+            attempts.append(done)
+    kept = min(attempts, key=lambda a: a.misfit)
     for n in range(len(tried)):
-        stages[init_name(n)]["kept"] = n == chosen
-    for name in (a[2] for a in attempts):
-        stages[name]["kept"] = name == kept
-    net.load_state_dict(state)
-    return fit, losses, chosen
+        stages[init_name(n)]["kept"] = n == kept.start
+    for a in attempts:
+        stages[a.name]["kept"] = a is kept
+    net.load_state_dict(kept.state)
+    return kept.fit, kept.losses, kept.start
 
 
 def candidate_starts(ranked: list[Segmentation], n_objects: int, most: int) -> list[Segmentation]:
