@@ -16,16 +16,14 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import statistics
+import sys
 from dataclasses import replace
 from pathlib import Path
 
-import statistics
-import sys
-
-from nct.capacity import CapacityConf
+from nct.capacity import CapacityConf, band_kept
 from nct.method import BAND_PREFIX
-
-History = list[tuple[int, float]]
+from nct.race import HeldoutHistory, lost
 
 
 def kept_fit(stages: dict, prefix: str) -> str:
@@ -33,7 +31,7 @@ def kept_fit(stages: dict, prefix: str) -> str:
     return next(name for name, s in stages.items() if name.startswith(prefix + "fit") and s.get("kept"))
 
 
-def history(run: Path, stages: dict, name: str) -> History:
+def history(run: Path, stages: dict, name: str) -> HeldoutHistory:
     """Stage ``name``'s held-out history: its record's, else its CSV log's (Lightning logs a
     validation at the step before the one the stage counts)."""
     if "heldout_history" in stages[name]:
@@ -61,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         fit = stages[kept_fit(stages, BAND_PREFIX)]
         # Time a rule could save: only that of a band fit that ran to the end (a raced one stopped already).
         full = float(fit["wall_time_s"]) if int(fit["steps"]) == steps else 0.0
-        runs.append((run.parent.name, ours, wide, steps, band["kept_f_max"] != band["f_max"][0], full, band_time,
+        runs.append((run.parent.name, ours, wide, steps, band_kept(band), full, band_time,
                      float(m["wall_time_s"])))
     if not runs:
         print(f"band_race: error: no finished run in {args.call}/runs tried the temporal band", file=sys.stderr)
@@ -78,16 +76,16 @@ def main(argv: list[str] | None = None) -> int:
     for at in args.at:
         for gain in args.gain:
             conf = replace(CapacityConf(), band_race_at=at, band_race_gain=gain)
-            cut, before, after, lost = [], [], [], []
+            cut, before, after, stops = [], [], [], []
             for scene, ours, wide, steps, kept, full, band_time, run_time in runs:
                 race = conf.band_race(wide, ours, steps)
-                stopped = bool(race and race["lost"])
+                stopped = lost(race)
                 cut.append((1 - race["step"] / steps) * full if stopped else 0.0)
-                lost += [(scene, race["step"], kept)] if stopped else []
+                stops += [(scene, race["step"], kept)] if stopped else []
                 before.append(run_time / (run_time - band_time))
                 after.append((run_time - cut[-1]) / (run_time - band_time))
-            print(f"| {at:g} | {gain:g} | {len(lost)}/{len(runs)} | {', '.join(str(s) for _, s, _ in lost)} | "
-                  f"{', '.join(s for s, _, k in lost if k) or 'none'} | {sum(cut):.0f} of "
+            print(f"| {at:g} | {gain:g} | {len(stops)}/{len(runs)} | {', '.join(str(s) for _, s, _ in stops)} | "
+                  f"{', '.join(s for s, _, k in stops if k) or 'none'} | {sum(cut):.0f} of "
                   f"{sum(r[6] for r in runs):.0f} s | {statistics.median(before):.2f} -> {statistics.median(after):.2f} |")
     return 0
 

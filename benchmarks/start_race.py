@@ -22,9 +22,9 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from band_race import History, history
+from band_race import history
 from nct.method_conf import InitConf
-from nct.race import race
+from nct.race import HeldoutHistory, lost, race
 
 RUNNER_UP = re.compile(r"^(?P<prefix>.*)fit_start(?P<n>\d+)$")
 
@@ -35,8 +35,8 @@ class Challenge:
 
     scene: str
     stage: str
-    leader: History
-    runner_up: History
+    leader: HeldoutHistory
+    runner_up: HeldoutHistory
     steps: int
     leader_end: float
     runner_up_end: float
@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
             stopped, lost_keeps, saved = 0, [], {s: 0.0 for s in run_times}
             for c in found:
                 verdict = race(c.runner_up, c.leader, c.steps, at, gain)
-                if verdict and verdict["lost"] and verdict["step"] < c.ran_to:
+                if lost(verdict) and verdict["step"] < c.ran_to:
                     stopped += 1
                     saved[c.scene] += (1 - verdict["step"] / c.ran_to) * c.fit_time
                     lost_keeps += [f"{c.scene} {c.stage}"] if c.kept else []

@@ -36,7 +36,7 @@ import numpy as np
 from skimage.measure import perimeter
 
 from nct.errors import require
-from nct.race import HeldoutHistory, race
+from nct.race import HeldoutHistory, lost, race
 
 
 @dataclass
@@ -99,9 +99,9 @@ class CapacityConf:
     def band_choice(self, f_max: float, configured: float, wider: float, race: dict | None = None) -> dict:
         """The band kept after first passes at ``f_max`` and at ``band_f_max`` with those held-out
         losses (the wider one where its fit stopped), and why, for metrics.json; ``race``: ``band_race``'s."""
-        lost = bool(race and race["lost"])
-        kept = self.band_f_max if not lost and self.keeps_band(configured, wider) else f_max
-        if lost:
+        behind = lost(race)
+        kept = self.band_f_max if not behind and self.keeps_band(configured, wider) else f_max
+        if behind:
             at, ahead = race["heldout_loss"]
             reason = (f"F_max {self.band_f_max:g}'s fit stopped at step {race['step']}: its held-out loss was "
                       f"{ahead / at:.0%} of F_max {f_max:g}'s at that step ({at:.4g} -> {ahead:.4g}); it goes on when "
@@ -112,6 +112,11 @@ class CapacityConf:
                       f"{f_max:g}'s")
         return {"f_max": [f_max, self.band_f_max], "heldout_loss": [configured, wider], "gain": self.band_gain,
                 "kept_f_max": kept, "reason": reason, "race": race}
+
+
+def band_kept(band: dict | None) -> bool:
+    """Whether a ``band_choice`` record (metrics.json -> capacity -> band; None: not tried) kept the wider band."""
+    return bool(band and band["kept_f_max"] != band["f_max"][0])
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from nct.sdf import binarise, masks_to_sdf
 from nct.segment import Segmentation, segmentations
 from nct.sinogram import Sinogram
 from nct.method_conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.race import HeldoutHistory, race
+from nct.race import HeldoutHistory, lost, race
 from nct.stages import (LOGGERS, FieldStage, HeldoutStop, IndexDataModule, InitFit, MinLossStop,
                         RunClock, SinogramFit, Snapshot, SnapshotLog, Views, run_stage, snapshot)
 
@@ -235,15 +235,15 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
     def race_leader(history: HeldoutHistory) -> dict | None:
         return start_race(history, leader.fit.heldout_history)
 
-    def lost(history: HeldoutHistory) -> bool:
-        return (race_leader(history) or {}).get("lost", False) or bool(stop and stop(history))
+    def beaten(history: HeldoutHistory) -> bool:
+        return lost(race_leader(history)) or bool(stop and stop(history))
 
     for n in order[1:] if start_race and len(prob.held_views) else []:
         net.load_state_dict(tried[n][1])
         challenger = tried[n][2]
         with torch.random.fork_rng():
-            done = fit_stage(challenger, prefix + f"fit_start{n}", n, prob.starts_rng, lost)
-        stopped = lost(challenger.heldout_history)
+            done = fit_stage(challenger, prefix + f"fit_start{n}", n, prob.starts_rng, beaten)
+        stopped = beaten(challenger.heldout_history)
         stages[done.name] |= {"misfit_start": tried[n][0], "misfit_end": done.misfit, "stopped": stopped,
                               "kept": False, "race": race_leader(challenger.heldout_history)}
         log.info("%s: %s", done.name, f"stopped at step {challenger.global_step}: its race was lost" if stopped
@@ -406,7 +406,7 @@ def reconstruct(
             return capacity.band_race(history, fit.heldout_history, optim.fit_steps)
 
         def behind(history: HeldoutHistory) -> bool:
-            return (band_race(history) or {}).get("lost", False)
+            return lost(band_race(history))
 
         with torch.random.fork_rng():
             torch.set_rng_state(replay[2])

@@ -24,3 +24,8 @@ def race(challenger: HeldoutHistory, rival: HeldoutHistory, steps: int, at: floa
         return None
     step, against, loss = next((d for d in due if d[2] > gain * d[1]), due[-1])
     return {"step": step, "heldout_loss": [against, loss], "gain": gain, "lost": loss > gain * against}
+
+
+def lost(verdict: dict | None) -> bool:
+    """Whether ``race``'s verdict says the challenger lost (no verdict yet: not lost)."""
+    return bool(verdict and verdict["lost"])

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from nct.capacity import band_kept
 from nct.errors import InputError
 from nct.fields import Field, build_field
 from nct.io import load_sinogram
@@ -103,8 +104,7 @@ def load_run(run_dir: Path) -> FittedRun:
     n_terms = int(metrics["capacity"]["n_terms"])
     model: ModelConf = replace(_typed(ModelConf, cfg.model), n_terms=n_terms)
     auto = bool(cfg.capacity.auto)
-    band = metrics["capacity"].get("band")
-    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto, bool(band and band["kept_f_max"] != band["f_max"][0]))
+    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto, band_kept(metrics["capacity"].get("band")))
     # The run's own construction (method.reconstruct): its seed draws the frequencies; every
     # tensor, the frequencies ``omega`` included, is then restored from the checkpoint.
     net = build_field(model, len(metrics["intensities"]), torch.Generator().manual_seed(int(cfg.seed)))
