@@ -148,6 +148,16 @@ class Start:
 
 
 @dataclass
+class _Started:
+    """One InitFit of a pass: the field's ``misfit`` on the check views after it, its ``state`` and
+    the SinogramFit that would continue it."""
+
+    misfit: float
+    state: dict
+    fit: SinogramFit
+
+
+@dataclass
 class _Attempt:
     """One SinogramFit of a pass: its stage ``name``, the start it began from, its ``misfit`` on
     the check views at the end (mean of ``losses`` [c]) and the field's ``state`` then."""
@@ -195,7 +205,7 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         return _Attempt(name, start, fit, float(losses.mean()), losses, copy.deepcopy(net.state_dict()))
 
     weights = copy.deepcopy(net.state_dict())
-    tried: list[tuple[float, dict, SinogramFit]] = []
+    tried: list[_Started] = []
     for n, begin in enumerate(starts):
         name = init_name(n)
         net.load_state_dict(weights)
@@ -210,14 +220,14 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         fit = sinogram_fit(1.0)
         misfit = float(fit.view_losses(check).mean())
         stages[name]["misfit"] = misfit
-        tried.append((misfit, copy.deepcopy(net.state_dict()), fit))
-    order = sorted(range(len(tried)), key=lambda n: tried[n][0])
+        tried.append(_Started(misfit, copy.deepcopy(net.state_dict()), fit))
+    order = sorted(range(len(tried)), key=lambda n: tried[n].misfit)
     chosen = order[0]
-    start, started, fit = tried[chosen]  # the leader's misfit, field and fit
+    start, fit = tried[chosen].misfit, tried[chosen].fit
     if len(tried) > 1:
         log.info("%sinit: the leader is candidate %d of the judge's %d best (misfits %s)", prefix, chosen, len(tried),
-                 ", ".join(f"{m:.4g}" for m, _, _ in tried))
-    net.load_state_dict(started)
+                 ", ".join(f"{t.misfit:.4g}" for t in tried))
+    net.load_state_dict(tried[chosen].state)
     attempts: list[_Attempt] = []
     for attempt in range(optim.retries + 1):
         fit = sinogram_fit(0.5**attempt) if attempt else fit
@@ -229,7 +239,7 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         log.warning("stage %s: the misfit rose from %.3g to %.3g; %s", done.name, start, done.misfit,
                     "rerunning it from its start at half the rates" if attempt < optim.retries
                     else "keeping the best attempt")
-        net.load_state_dict(started)
+        net.load_state_dict(tried[chosen].state)
     leader = min(attempts, key=lambda a: a.misfit)
 
     def race_leader(history: HeldoutHistory) -> dict | None:
@@ -239,12 +249,12 @@ def _fit_pass(prob: _Problem, net: Field, prefix: str, steps: tuple[int, int], o
         return lost(race_leader(history)) or bool(stop and stop(history))
 
     for n in order[1:] if start_race and len(prob.held_views) else []:
-        net.load_state_dict(tried[n][1])
-        challenger = tried[n][2]
+        net.load_state_dict(tried[n].state)
+        challenger = tried[n].fit
         with torch.random.fork_rng():
             done = fit_stage(challenger, prefix + f"fit_start{n}", n, prob.starts_rng, beaten)
         stopped = beaten(challenger.heldout_history)
-        stages[done.name] |= {"misfit_start": tried[n][0], "misfit_end": done.misfit, "stopped": stopped,
+        stages[done.name] |= {"misfit_start": tried[n].misfit, "misfit_end": done.misfit, "stopped": stopped,
                               "kept": False, "race": race_leader(challenger.heldout_history)}
         log.info("%s: %s", done.name, f"stopped at step {challenger.global_step}: its race was lost" if stopped
                  else f"ended at misfit {done.misfit:.4g} against the leader's {leader.misfit:.4g}")
