@@ -18,7 +18,7 @@ import lightning as L
 import numpy as np
 import torch
 
-from nct.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain, object_models
+from nct.capacity import CapacityConf, Rung, band_kept, boundary_motion_px, climb, explain, object_models
 from nct.data_term import view_noise
 from nct.fields import Field, ModelConf, build_field
 from nct.normalise import field_of_view
@@ -425,7 +425,7 @@ def reconstruct(
         band = capacity.band_choice(model.f_max, chosen.heldout_loss, _mean_or_nan(_held_losses(prob, wide[2])),
                                     band_race(wide[1].heldout_history))
         log.info("temporal band: %s: keeping F_max %g", band["reason"], band["kept_f_max"])
-        if band["kept_f_max"] != model.f_max:
+        if band_kept(band):
             (net, fit, checked, start), model = wide, replace(model, f_max=capacity.band_f_max)
     seg = segs[start]
 
