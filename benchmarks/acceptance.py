@@ -1,7 +1,7 @@
 """Acceptance of the NeuralCT method (issues 3 and 9): the default ``nct`` against FBP on six scenes.
 
 For each scene and seed, FBP and NeuralCT (the default configuration, nothing tuned per scene)
-run in their own ``nct`` process (nct.benchmarking); the circle is also reconstructed by the
+run in their own ``nct`` process (nct.analysis.benchmarking); the circle is also reconstructed by the
 paper's FBP (360-degree window). The criteria, on the per-run median over frames, then the median
 over seeds (a failed run counts as Dice 0 and fails its criterion):
 
@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.benchmarking import QUIET, Job, Record, benchmark_parser, group, run_jobs, seed_stats
-from nct.tables import markdown_table, write_csv
+from nct.analysis.benchmarking import QUIET, Job, Record, benchmark_parser, group, run_jobs, seed_stats
+from nct.run.tables import markdown_table, write_csv
 
 SCENES: dict[str, tuple[str, ...]] = {
     "circle_100": ("experiment=circle", "phantom.displacement_deg=100"),

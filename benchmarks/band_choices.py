@@ -21,10 +21,10 @@ import shutil
 import sys
 from pathlib import Path
 
-from nct.capacity import CapacityConf
-from nct.io import load_sinogram
-from nct.method import rotations_spanned
-from nct.method_conf import ModelConf
+from nct.method.capacity import CapacityConf
+from nct.acquisition.io import load_sinogram
+from nct.method.reconstruct import rotations_spanned
+from nct.method.conf import ModelConf
 
 
 def heldout(call: Path, scene: str) -> float | None:

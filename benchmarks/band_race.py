@@ -21,9 +21,9 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from nct.capacity import CapacityConf, band_kept
-from nct.method import BAND_PREFIX
-from nct.race import HeldoutHistory, lost
+from nct.method.capacity import CapacityConf, band_kept
+from nct.method.reconstruct import BAND_PREFIX
+from nct.method.race import HeldoutHistory, lost
 
 
 def kept_fit(stages: dict, prefix: str) -> str:

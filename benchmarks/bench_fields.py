@@ -12,11 +12,11 @@ import time
 
 import torch
 
-from nct.fields import ModelConf, build_field
-from nct.geometry import ParallelGeometry
-from nct.scanner import ImageGrid
-from nct.method_conf import LossConf, OptimConf, RenderConf
-from nct.stages import SinogramFit, Views
+from nct.method.fields import ModelConf, build_field
+from nct.acquisition.geometry import ParallelGeometry
+from nct.acquisition.scanner import ImageGrid
+from nct.method.conf import LossConf, OptimConf, RenderConf
+from nct.method.stages import SinogramFit, Views
 
 CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_terms": 0}), ("siren", {
     "width": 256, "temporal_width": 128, "n_terms": 128, "f_max": 3.0}))

@@ -5,7 +5,7 @@ field of view, 100 degrees of arc per gantry rotation, one rotation). This scrip
 each geometry below, as a sinogram file by its own analytic simulation (exact disc chords along
 rays built from the documented convention, SUB_RAYS rays per bin, each view at its own time; it
 imports nothing of nct's simulation or geometry), then runs the default ``nct data=file`` on each
-file and seed (nct.benchmarking: a process per run). A run scores NeuralCT and the project's
+file and seed (nct.analysis.benchmarking: a process per run). A run scores NeuralCT and the project's
 fan-beam FBP (rebinned to parallel rays, 180-degree windows) on the same truth; the criterion of
 issue 11 is NCT median Dice >= 0.93 and >= FBP's + 0.08.
 
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.benchmarking import (QUIET, Job, Record, benchmark_parser, companion, group, median_ok, positive_int,
+from nct.analysis.benchmarking import (QUIET, Job, Record, benchmark_parser, companion, group, median_ok, positive_int,
                               run_jobs, seed_stats)
-from nct.tables import markdown_table, write_csv
+from nct.run.tables import markdown_table, write_csv
 
 RADIUS, ORBIT, DEG_PER_ROTATION = 0.15, 0.20, 100.0
 ROTATION_TIME = 0.25  # s

@@ -37,11 +37,11 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scenes import Scene, draw_scenes, write_scene  # noqa: E402
 
-from nct.benchmarking import (  # noqa: E402
+from nct.analysis.benchmarking import (  # noqa: E402
     QUIET, Job, Record, benchmark_parser, companion, positive_int, run_jobs,
 )
-from nct.metrics import dice  # noqa: E402
-from nct.tables import markdown_table, write_csv  # noqa: E402
+from nct.run.metrics import dice  # noqa: E402
+from nct.run.tables import markdown_table, write_csv  # noqa: E402
 
 MARGIN = 0.01  # (b): NCT may trail FBP by at most this much Dice
 TARGET_DICE, TARGET_SHARE, MIN_RADIUS_PCT = 0.90, 0.90, 4.0  # (c)

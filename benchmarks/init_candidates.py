@@ -4,7 +4,7 @@ the sinogram judge scored (``init.levels=sinogram``), best first, with the start
 ``init.race_at``: metrics.json -> init -> start).
 
 A diagnostic for a scene whose objects start wrong (benchmarks/results/generalisation/seed1:
-scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct``
+scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct.reconstruct``
 is called and stopped where it hands them to the segmentation, so nothing here re-derives them.
 Levels and a(k) are in the method's units: times the run's ``init.intensity_unit``
 (metrics.json) for the data's.
@@ -22,13 +22,13 @@ from pathlib import Path
 import numpy as np
 from hydra import compose, initialize_config_module
 
-import nct.method
-from nct import segment as seg
-from nct.cli import CONFIG_MODULE
-from nct.config import validate
+import nct.method.reconstruct
+from nct.method import segment as seg
+from nct.cli.main import CONFIG_MODULE
+from nct.run.config import validate
 from nct.errors import InputError, MethodError
-from nct.method import candidate_starts
-from nct.pipeline import acquire, reconstruct_all
+from nct.method.reconstruct import candidate_starts
+from nct.run.pipeline import acquire, reconstruct_all
 
 
 class _Caught(Exception):
@@ -51,15 +51,15 @@ def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tup
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
-    real = nct.method.segmentations
-    nct.method.segmentations = catch
+    real = nct.method.reconstruct.segmentations
+    nct.method.reconstruct.segmentations = catch
     try:
         with tempfile.TemporaryDirectory() as tmp:
             reconstruct_all(conf, acq, Path(tmp))
     except _Caught as caught:
         frames, k, rng, kappa, share, route, judge = caught.args_
     finally:
-        nct.method.segmentations = real
+        nct.method.reconstruct.segmentations = real
     return frames, k, rng, kappa, share, route, judge, conf.init.starts
 
 

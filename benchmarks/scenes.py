@@ -373,7 +373,7 @@ def line_integrals(scene: Scene, size: int) -> np.ndarray:
 def attenuation_scale(extent: float) -> float:
     """k with exp(−p·k) the transmitted fraction of a file line integral p: intensity 1 is taken as
     0.2 /cm on a 25 cm field of view whatever the file's unit, so that the same scene gets the same
-    noise in every unit system (the project's convention, nct.simulate)."""
+    noise in every unit system (the project's convention, nct.scenes.simulate)."""
     return MU_PER_INTENSITY_CM * FOV_SIDE_CM / extent
 
 

@@ -1,6 +1,6 @@
 """Speed against accuracy: FBP and NeuralCT configurations of increasing budget on six scenes.
 
-Each (scene, configuration, seed) runs in its own ``nct`` process (nct.benchmarking). Writes
+Each (scene, configuration, seed) runs in its own ``nct`` process (nct.analysis.benchmarking). Writes
 runs.csv, summary.csv, accuracy_vs_time.png (Pareto front per scene), params_vs_accuracy.png
 and speed_accuracy.md (table and the headline: time to median Dice >= 0.90 on circle at 100
 degrees, our default against the paper-sized model, measured or extrapolated to 5000 steps).
@@ -24,12 +24,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
-from nct.benchmarking import (  # noqa: E402
+from nct.analysis.benchmarking import (  # noqa: E402
     QUIET, Job, Record, benchmark_parser, default_config, extrapolate_time, group, median_ok, pareto_front,
     positive_int, run_jobs, scaled_steps, seed_stats, stage_steps,
 )
-from nct.metrics import DICE_GOOD  # noqa: E402
-from nct.tables import fmt, markdown_table, write_csv  # noqa: E402
+from nct.run.metrics import DICE_GOOD  # noqa: E402
+from nct.run.tables import fmt, markdown_table, write_csv  # noqa: E402
 
 SCENES: dict[str, tuple[str, ...]] = {
     "circle_40": ("experiment=circle", "phantom.displacement_deg=40"),

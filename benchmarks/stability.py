@@ -2,7 +2,7 @@
 
 Maps Dice (median, quartiles and range over seeds) of both methods against displacement per
 rotation, Poisson noise I0 and views per rotation on the moving circle, each run in its own ``nct``
-process (nct.benchmarking). A run that fails, diverges, times out or scores NaN counts as Dice 0 and
+process (nct.analysis.benchmarking). A run that fails, diverges, times out or scores NaN counts as Dice 0 and
 as a failure. The breakdown point is the first setting (easy to hard) with median Dice < 0.85.
 Writes runs.csv, summary.csv, breakdown.csv, stability.png and stability.md.
 
@@ -24,12 +24,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
-from nct.benchmarking import (  # noqa: E402
+from nct.analysis.benchmarking import (  # noqa: E402
     QUIET, Job, Record, benchmark_parser, breakdown_point, default_config, group, median_ok, run_jobs,
     scaled_steps, seed_stats,
 )
-from nct.metrics import DICE_GOOD  # noqa: E402
-from nct.tables import markdown_table, write_csv  # noqa: E402
+from nct.run.metrics import DICE_GOOD  # noqa: E402
+from nct.run.tables import markdown_table, write_csv  # noqa: E402
 
 METHODS = ("fbp", "nct")
 QUICK_DATA = ("image.size=64", "scanner.n_bins=64")  # --quick: a quarter of the pixels, for both methods

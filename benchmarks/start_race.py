@@ -23,8 +23,8 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 from band_race import history
-from nct.method_conf import InitConf
-from nct.race import HeldoutHistory, lost, race
+from nct.method.conf import InitConf
+from nct.method.race import HeldoutHistory, lost, race
 
 RUNNER_UP = re.compile(r"^(?P<prefix>.*)fit_start(?P<n>\d+)$")
 

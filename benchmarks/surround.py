@@ -29,9 +29,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from generalisation import MARGIN, NCT_SEED, Outcome, median, outcomes, scene_overrides  # noqa: E402
 from scenes import Acquisition, Ellipse, Motion, Scene, layout_ok, write_scene  # noqa: E402
 
-from nct.benchmarking import Job, benchmark_parser, positive_int, run_jobs  # noqa: E402
-from nct.metrics import dice  # noqa: E402
-from nct.tables import markdown_table, write_csv  # noqa: E402
+from nct.analysis.benchmarking import Job, benchmark_parser, positive_int, run_jobs  # noqa: E402
+from nct.run.metrics import dice  # noqa: E402
+from nct.run.tables import markdown_table, write_csv  # noqa: E402
 
 TARGET_DICE = 0.85  # issue 9, item 5: the moving object at its own level
 FRAMES_PER_ROTATION = 12

@@ -10,7 +10,7 @@ from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig
 
-from nct.cli import CONFIG_MODULE
+from nct.cli.main import CONFIG_MODULE
 
 TINY = [
     "image.size=32",

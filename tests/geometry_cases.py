@@ -1,13 +1,13 @@
 """Shared by the geometry tests: every geometry the projector, simulation and FBP must handle, and
 the closed-form line integrals of ellipses along their rays, derived from the convention in
-``shared/DESIGN.md`` independently of ``nct.geometry``."""
+``shared/DESIGN.md`` independently of ``nct.acquisition.geometry``."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from nct.geometry import FanGeometry, ParallelGeometry
-from nct.scanner import ImageGrid
+from nct.acquisition.geometry import FanGeometry, ParallelGeometry
+from nct.acquisition.scanner import ImageGrid
 
 # Objects stay within radius 0.5 of a unit field of view; every detector sees all of that disc.
 GEOMETRIES = {

@@ -11,13 +11,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nct.capacity import CapacityConf
-from nct.io import save_sinogram
-from nct.method import reconstruct
-from nct.method_conf import HeldoutConf, LossConf
-from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.method.capacity import CapacityConf
+from nct.acquisition.io import save_sinogram
+from nct.method.reconstruct import reconstruct
+from nct.method.conf import HeldoutConf, LossConf
+from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER
 
 GRID = ImageGrid(32)

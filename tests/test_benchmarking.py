@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from nct.benchmarking import (
+from nct.analysis.benchmarking import (
     LOG_FILE, Job, Record, breakdown_point, extrapolate_time, pareto_front, read_run, run_jobs, save_record,
     seed_stats,
 )

@@ -7,14 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nct.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain, next_rung_pays, object_models
-from nct.fields import ModelConf
-from nct.method import reconstruct
-from nct.metrics import frame_metrics
-from nct.phantoms import CircleConf, StaticConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.method_conf import LossConf, OptimConf, TrainerConf
+from nct.method.capacity import CapacityConf, Rung, boundary_motion_px, climb, explain, next_rung_pays, object_models
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import reconstruct
+from nct.run.metrics import frame_metrics
+from nct.scenes.phantoms import CircleConf, StaticConf, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
+from nct.method.conf import LossConf, OptimConf, TrainerConf
 
 GRID = ImageGrid(32)
 MODEL = ModelConf(family="grid", resolution=32, temporal_resolution=16, levels=3)

@@ -10,9 +10,9 @@ import pytest
 import torch
 from hydra.core.global_hydra import GlobalHydra
 
-from nct import cli
+from nct.cli import main as cli
 from nct.errors import InputError
-from nct.stages import check_accelerator
+from nct.method.stages import check_accelerator
 
 QUICK = ["debug=tiny", "logger=none", "method=fbp"]
 

@@ -12,8 +12,8 @@ from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
 import nct
-from nct.config import NCTConf, validate
-from nct.method_conf import HeldoutConf, InitConf, OptimConf, RenderConf, TrainerConf
+from nct.run.config import NCTConf, validate
+from nct.method.conf import HeldoutConf, InitConf, OptimConf, RenderConf, TrainerConf
 from nct.errors import InputError
 
 from conftest import compose_config
@@ -132,7 +132,7 @@ def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path)
     conf_dir = Path(str(files("nct.conf")))
     assert conf_dir == Path(nct.__file__).parent / "conf" and (conf_dir / "config.yaml").is_file()
     assert not [p for p in conf_dir.rglob("*") if p.is_symlink()]
-    done = subprocess.run([sys.executable, "-m", "nct.cli", "--cfg", "hydra"], cwd=tmp_path, capture_output=True,
+    done = subprocess.run([sys.executable, "-m", "nct.cli.main", "--cfg", "hydra"], cwd=tmp_path, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     sources = yaml.safe_load(done.stdout)["hydra"]["runtime"]["config_sources"]
@@ -140,7 +140,7 @@ def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path)
 
 
 def test_config_schemas_import_without_torch():
-    code = "import sys, nct.config; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
+    code = "import sys, nct.run.config; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"

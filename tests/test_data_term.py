@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import torch
 
-from nct.data_term import estimate_i0, misfit, noise_std, view_noise
-from nct.normalise import Units
-from nct.phantoms import CircleConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import add_poisson_noise, attenuation_scale, simulate
-from nct.sinogram import Sinogram
+from nct.physics.data_term import estimate_i0, misfit, noise_std, view_noise
+from nct.method.normalise import Units
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import add_poisson_noise, attenuation_scale, simulate
+from nct.acquisition.sinogram import Sinogram
 
 RENDER = torch.tensor([[1.0, 2.0, 0.0]])
 VALUES = torch.tensor([[0.0, 4.0, 0.5]])

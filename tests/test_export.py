@@ -5,7 +5,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 
-from nct.export import movie_figure, save_movie
+from nct.run.export import movie_figure, save_movie
 
 
 def frames(n: int = 4, size: int = 16) -> dict[str, np.ndarray]:

@@ -12,11 +12,11 @@ import torch
 from omegaconf import OmegaConf
 
 from conftest import TINY, compose_config
-from nct.export_cli import main
-from nct.fields import build_field
-from nct.method_conf import ModelConf
-from nct.pipeline import run_job
-from nct.reload import load_run
+from nct.cli.export import main
+from nct.method.fields import build_field
+from nct.method.conf import ModelConf
+from nct.run.pipeline import run_job
+from nct.method.reload import load_run
 
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
 VARIANTS = {  # each in units of its own (normalise.py): the export maps back like the run
@@ -166,7 +166,7 @@ def test_a_run_without_a_logger_keeps_its_checkpoints(tmp_path):
     """logger=none turns off TensorBoard, not the checkpoints nct-export and resume read."""
     from conftest import TINY, compose_config
 
-    from nct.pipeline import run_job
+    from nct.run.pipeline import run_job
 
     run_job(compose_config(TINY + ["logger=none"]), tmp_path / "run")
     assert sorted(p.parent.name for p in (tmp_path / "run" / "checkpoints").glob("*/last.ckpt")) == ["fit", "init"]

@@ -11,11 +11,11 @@ import pytest
 from geometry_cases import closed_form_sinogram, rel_l2
 from test_benchmarking import load_script
 
-from nct.benchmarking import Job, Record, save_record
-from nct.geometry import FanGeometry
-from nct.io import load_sinogram
-from nct.phantoms import CircleConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
+from nct.analysis.benchmarking import Job, Record, save_record
+from nct.acquisition.geometry import FanGeometry
+from nct.acquisition.io import load_sinogram
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
 
 fan = load_script("fan")
 

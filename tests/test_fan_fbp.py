@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from geometry_cases import GEOMETRIES, closed_form_sinogram, rel_l2
 
-from nct.geometry import FanGeometry
-from nct.phantoms import StaticConf, build_phantom
-from nct.projector import fbp_frames
-from nct.rebin import parallel_geometry_for, to_parallel
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.sinogram import Sinogram
+from nct.acquisition.geometry import FanGeometry
+from nct.scenes.phantoms import StaticConf, build_phantom
+from nct.physics.projector import fbp_frames
+from nct.acquisition.rebin import parallel_geometry_for, to_parallel
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
+from nct.acquisition.sinogram import Sinogram
 
 N = 64
 

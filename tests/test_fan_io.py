@@ -9,13 +9,13 @@ import pytest
 from geometry_cases import GEOMETRIES, closed_form_sinogram
 
 from nct.errors import InputError
-from nct.geometry import ParallelGeometry
-from nct.io import load_sinogram, save_sinogram
-from nct.phantoms import StaticConf, build_phantom
-from nct.pipeline import run_job
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.sinogram import Sinogram
+from nct.acquisition.geometry import ParallelGeometry
+from nct.acquisition.io import load_sinogram, save_sinogram
+from nct.scenes.phantoms import StaticConf, build_phantom
+from nct.run.pipeline import run_job
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
+from nct.acquisition.sinogram import Sinogram
 
 
 def write(path, geometry, **changes) -> None:

@@ -7,15 +7,15 @@ import pytest
 import torch
 from geometry_cases import GEOMETRIES, closed_form_sinogram
 
-from nct.fields import ModelConf
-from nct.method import reconstruct
-from nct.metrics import frame_metrics
-from nct.phantoms import CircleConf, build_phantom
-from nct.projector import fbp_frames
-from nct.render import project_frames
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import reconstruct
+from nct.run.metrics import frame_metrics
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.physics.projector import fbp_frames
+from nct.method.render import project_frames
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
+from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
 
 ANGLES = np.array([0.0, 0.7, 1.9, 3.0])
 DISC = (0.08, -0.05, 0.2, 0.2, 0.0, 1.0)

@@ -11,12 +11,12 @@ import pytest
 from geometry_cases import closed_form_sinogram, rel_l2
 
 from conftest import compose_config
-from nct.config import FanScannerConf, validate
+from nct.run.config import FanScannerConf, validate
 from nct.errors import InputError
-from nct.geometry import FanGeometry
-from nct.io import load_sinogram
-from nct.phantoms import build_phantom
-from nct.pipeline import run_job
+from nct.acquisition.geometry import FanGeometry
+from nct.acquisition.io import load_sinogram
+from nct.scenes.phantoms import build_phantom
+from nct.run.pipeline import run_job
 
 
 def test_defaults_span_the_fan_through_the_unit_field_of_view():

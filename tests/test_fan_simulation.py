@@ -7,10 +7,10 @@ import pytest
 import torch
 from geometry_cases import GEOMETRIES, closed_form_sinogram, rel_l2
 
-from nct.phantoms import CircleConf, LettersConf, StaticConf, build_phantom
-from nct.projector import project
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.scenes.phantoms import CircleConf, LettersConf, StaticConf, build_phantom
+from nct.physics.projector import project
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
 
 
 def scanner_for(geometry, views_per_rotation: int = 24) -> Scanner:

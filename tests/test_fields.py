@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from nct.fields import GridField, ModelConf, build_field, upsample
+from nct.method.fields import GridField, ModelConf, build_field, upsample
 
 XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
 SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
@@ -114,8 +114,8 @@ def randomised(f):
 @pytest.mark.parametrize("family", ["siren", "grid"])
 def test_lattice_evaluation_matches_points(family, device):
     """``on_lattice`` (separable matrix products for grids) gives the point-wise values at pixel centres."""
-    from nct.fields import lattice_points
-    from nct.scanner import ImageGrid
+    from nct.method.fields import lattice_points
+    from nct.acquisition.scanner import ImageGrid
 
     x, y = ImageGrid(24, 3.0).xy()
     centres = torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / 1.5).float()

@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nct.benchmarking import Job, Record
-from nct.io import load_sinogram
-from nct.metrics import dice
-from nct.projector import fbp_frames
-from nct.scanner import ImageGrid
-from nct.segment import segmentations
+from nct.analysis.benchmarking import Job, Record
+from nct.acquisition.io import load_sinogram
+from nct.run.metrics import dice
+from nct.physics.projector import fbp_frames
+from nct.acquisition.scanner import ImageGrid
+from nct.method.segment import segmentations
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -152,7 +152,7 @@ def test_own_level_of_a_nested_object_adds_its_containers():
 def test_init_candidates_sees_what_the_run_segments(tmp_path):
     """benchmarks/init_candidates.py stops the run where it segments: the judged candidate the run
     kept (metrics.json -> init -> start) has the a(k) it records as its initial levels."""
-    from nct.pipeline import run_job
+    from nct.run.pipeline import run_job
     from conftest import compose_config
 
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]

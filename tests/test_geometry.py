@@ -10,9 +10,9 @@ import torch
 from geometry_cases import (ELLIPSES, GEOMETRIES, closed_form_sinogram, detector_u, ellipse_chords,
                             ellipse_image, reference_rays, rel_l2)
 
-from nct.geometry import FanGeometry, ParallelGeometry, make_geometry
-from nct.projector import project
-from nct.scanner import ImageGrid, Scanner
+from nct.acquisition.geometry import FanGeometry, ParallelGeometry, make_geometry
+from nct.physics.projector import project
+from nct.acquisition.scanner import ImageGrid, Scanner
 
 ANGLES = np.array([0.0, 0.3, 1.0, math.pi / 2, 2.2, 3.0, 4.5])
 EVERY = pytest.mark.parametrize("geometry", GEOMETRIES.values(), ids=GEOMETRIES.keys())
@@ -139,9 +139,9 @@ def test_ellipse_list_is_off_centre():
 
 
 def test_subsets_and_unit_changes_keep_the_geometry():
-    from nct.method import subset
-    from nct.normalise import Units
-    from nct.sinogram import Sinogram
+    from nct.method.reconstruct import subset
+    from nct.method.normalise import Units
+    from nct.acquisition.sinogram import Sinogram
 
     geometry = GEOMETRIES["fan-curved-offset"]
     sino = Sinogram(np.ones((4, geometry.n_bins), np.float32), np.arange(4.0), np.arange(4.0), **geometry.keys())

@@ -8,9 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nct.metrics import dice
-from nct.phantoms import EllipseConf, Signal
-from nct.scanner import ImageGrid
+from nct.run.metrics import dice
+from nct.scenes.phantoms import EllipseConf, Signal
+from nct.acquisition.scanner import ImageGrid
 from tiny_fits import OPTIM, fit_composed
 
 GRID = ImageGrid(40)
@@ -65,7 +65,7 @@ def test_balanced_l1_weighs_inside_and_outside_equally():
     """One inside pixel counts as much as the 15 outside: a field negative everywhere is no fit."""
     import torch
 
-    from nct.stages import balanced_l1
+    from nct.method.stages import balanced_l1
 
     targets = -torch.ones(1, 1, 4, 4)
     targets[0, 0, 1, 1] = 1.0

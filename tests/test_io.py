@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from nct.errors import InputError
-from nct.io import load_sinogram, save_sinogram
-from nct.sinogram import Sinogram, Truth
+from nct.acquisition.io import load_sinogram, save_sinogram
+from nct.acquisition.sinogram import Sinogram, Truth
 
 
 def make_sino(with_truth: bool = True) -> Sinogram:

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import torch
 
-from nct.levels import sinogram_judge
-from nct.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
-from nct.projector import fbp_frames
-from nct.scanner import ImageGrid, Scanner
-from nct.segment import segment
-from nct.simulate import simulate
+from nct.method.judge import sinogram_judge
+from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.physics.projector import fbp_frames
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.method.segment import segment
+from nct.scenes.simulate import simulate
 
 GRID = ImageGrid(48)
 SCANNER = Scanner(views_per_rotation=240, rotations=1.0, rotation_time=0.25, n_bins=48, bin_spacing=1 / 48)

@@ -10,12 +10,12 @@ import pytest
 import torch
 
 from nct.errors import DivergenceError
-from nct.method import heldout_standard_error, reconstruct, rotations_since_start, split_views
-from nct.scanner import ImageGrid
-from nct.sinogram import Sinogram, Truth
-from nct.method_conf import HeldoutConf, LossConf, RenderConf
-from nct.simulate import add_poisson_noise
-from nct.stages import DivergenceCheck
+from nct.method.reconstruct import heldout_standard_error, reconstruct, rotations_since_start, split_views
+from nct.acquisition.scanner import ImageGrid
+from nct.acquisition.sinogram import Sinogram, Truth
+from nct.method.conf import HeldoutConf, LossConf, RenderConf
+from nct.scenes.simulate import add_poisson_noise
+from nct.method.stages import DivergenceCheck
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER, moving_disc
 
 GRID = ImageGrid(32)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from nct.metrics import FrameMetrics, dice, frame_metrics, summarise
+from nct.run.metrics import FrameMetrics, dice, frame_metrics, summarise
 
 
 def test_dice_known_values():

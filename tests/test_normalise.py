@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from nct.errors import NoObjectError
-from nct.method import reconstruct
-from nct.metrics import frame_metrics
-from nct.normalise import Units
-from nct.scanner import ImageGrid
-from nct.sinogram import Sinogram
-from nct.method_conf import LossConf
+from nct.method.reconstruct import reconstruct
+from nct.run.metrics import frame_metrics
+from nct.method.normalise import Units
+from nct.acquisition.scanner import ImageGrid
+from nct.acquisition.sinogram import Sinogram
+from nct.method.conf import LossConf
 from tiny_fits import INIT, MODEL, TRAINER, moving_disc
 from tiny_fits import OPTIM as SHORT
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from nct.outcome import FINISHED, UNFINISHED, Outcome, read_outcome
+from nct.run.outcome import FINISHED, UNFINISHED, Outcome, read_outcome
 
 
 def run_folder(root: Path, status: object = None, metrics: object = None) -> Path:
@@ -33,7 +33,7 @@ def test_read_outcome(tmp_path: Path, status, metrics, expected: Outcome):
 
 
 def test_benchmark_scores_an_unreadable_metrics_file_invalid(tmp_path: Path):
-    from nct.benchmarking import read_run
+    from nct.analysis.benchmarking import read_run
 
     run = run_folder(tmp_path / "run", {"status": "ok", "error": None, "wall_time_s": 1.0}, "{")
     fields = read_run(run, "nct")

@@ -8,9 +8,9 @@ from omegaconf import OmegaConf
 from scipy.integrate import quad
 from skimage.transform import radon
 
-from nct.phantoms import (CircleConf, ComposedConf, EllipseConf, HeartConf, LettersConf, Signal, StaticConf,
+from nct.scenes.phantoms import (CircleConf, ComposedConf, EllipseConf, HeartConf, LettersConf, Signal, StaticConf,
                           build_phantom, heart_waveform)
-from nct.scanner import ImageGrid, Scanner
+from nct.acquisition.scanner import ImageGrid, Scanner
 
 T_ROT = 0.25
 

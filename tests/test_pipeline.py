@@ -12,7 +12,7 @@ from skimage.transform import radon
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from nct.errors import InputError
-from nct.pipeline import run_job
+from nct.run.pipeline import run_job
 
 
 def read(path):
@@ -89,7 +89,7 @@ def test_seed_reproduces_noisy_data(tiny_cfg, tmp_path):
 
 
 def test_cli_bad_value_is_one_line_and_exit_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "nct.cli", "scanner.views_per_rotation=-5",
+    proc = subprocess.run([sys.executable, "-m", "nct.cli.main", "scanner.views_per_rotation=-5",
                            f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.strip() == "nct: error: scanner.views_per_rotation must be >= 2, got -5"
@@ -127,7 +127,7 @@ def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
 
 def test_method_failure_is_one_line_exit_1_and_recorded(tmp_path):
     """An expected method failure (here a fit driven to diverge): one line, exit 1, reason in status.json."""
-    proc = subprocess.run([sys.executable, "-m", "nct.cli", "debug=tiny", "optim.lr=1000", "optim.warmup_steps=0",
+    proc = subprocess.run([sys.executable, "-m", "nct.cli.main", "debug=tiny", "optim.lr=1000", "optim.warmup_steps=0",
                            "logger=none", f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert proc.stderr.strip().startswith("nct: error: stage") and "\n" not in proc.stderr.strip()

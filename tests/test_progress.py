@@ -8,13 +8,13 @@ import re
 import numpy as np
 import pytest
 
-from nct.fields import ModelConf
-from nct.method import reconstruct
-from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
-from nct.phantoms import CircleConf, build_phantom
-from nct.progress import StageBar, show_bar
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import reconstruct
+from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.method.progress import StageBar, show_bar
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
 
 GRID = ImageGrid(32)
 
@@ -25,12 +25,12 @@ def test_without_a_bar_each_stage_logs_one_line(caplog):
     sino = simulate(build_phantom(CircleConf(), scanner.rotation_time), scanner, GRID, times, None,
                     np.random.default_rng(0))
     optim = OptimConf(init_steps=4, fit_steps=6, refine=True, refine_init_steps=2, refine_fit_steps=3)
-    with caplog.at_level(logging.INFO, logger="nct.progress"):
+    with caplog.at_level(logging.INFO, logger="nct.method.progress"):
         result = reconstruct(sino, GRID, times, ModelConf(width=8, depth=1, temporal_width=8, temporal_depth=1,
                                                           n_terms=2), LossConf(),
                              TrainerConf(accelerator="cpu", progress_bar=False), 0, logger="none", optim=optim,
                              init=InitConf(frames_per_rotation=6))
-    lines = [r.getMessage() for r in caplog.records if r.name == "nct.progress"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "nct.method.progress"]
     assert [line.split(":")[0] for line in lines] == [f"stage {s}" for s in ("init", "fit", "refine_init", "refine_fit")]
     for line, (stage, record) in zip(lines, result.stages.items()):
         steps, loss, seconds = re.fullmatch(r"stage \w+: (\d+) steps, loss (\S+), (\S+) s", line).groups()

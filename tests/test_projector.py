@@ -11,10 +11,10 @@ import torch
 from geometry_cases import ellipse_image, rel_l2
 from skimage.transform import iradon, radon
 
-from nct import projector
-from nct.projector import FILTERS, fbp, fbp_frames, forward_project
-from nct.scanner import ImageGrid, Scanner
-from nct.sinogram import Sinogram
+from nct.physics import projector
+from nct.physics.projector import FILTERS, fbp, fbp_frames, forward_project
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.acquisition.sinogram import Sinogram
 
 # (cx, cy, semi-axis a along direction phi, semi-axis b, phi, intensity): off-centre and rotated.
 ELLIPSE = (0.1, -0.05, 0.32, 0.22, 0.5, 1.0)

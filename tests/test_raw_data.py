@@ -11,12 +11,12 @@ import tifffile
 from geometry_cases import GEOMETRIES, closed_form_sinogram
 
 from nct.errors import InputError
-from nct.io import load_sinogram, save_sinogram
-from nct.normalise import Units
-from nct.pipeline import run_job
-from nct.projector import fbp_frames
-from nct.scanner import ImageGrid
-from nct.sinogram import Sinogram
+from nct.acquisition.io import load_sinogram, save_sinogram
+from nct.method.normalise import Units
+from nct.run.pipeline import run_job
+from nct.physics.projector import fbp_frames
+from nct.acquisition.scanner import ImageGrid
+from nct.acquisition.sinogram import Sinogram
 
 GEOMETRY = GEOMETRIES["fan-flat-offset"]
 N_VIEWS = 90

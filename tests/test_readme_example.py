@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from nct.errors import InputError
-from nct.io import load_sinogram
+from nct.acquisition.io import load_sinogram
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

@@ -10,9 +10,9 @@ from geometry_cases import GEOMETRIES, ellipse_image, rel_l2
 from reference_projector import ray_end_points, siddon
 from scipy.ndimage import map_coordinates
 
-from nct.geometry import FanGeometry
-from nct.projector import project
-from nct.scanner import ImageGrid
+from nct.acquisition.geometry import FanGeometry
+from nct.physics.projector import project
+from nct.acquisition.scanner import ImageGrid
 
 EVERY = pytest.mark.parametrize("name", GEOMETRIES, ids=GEOMETRIES.keys())
 ANGLES = np.linspace(0, 2 * np.pi, 16, endpoint=False) + 0.1  # views near the axes included

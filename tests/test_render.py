@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from nct.geometry import ParallelGeometry
-from nct.render import intensity, occupancy, project_frames
-from nct.scanner import ImageGrid
+from nct.acquisition.geometry import ParallelGeometry
+from nct.method.render import intensity, occupancy, project_frames
+from nct.acquisition.scanner import ImageGrid
 
 GRID = ImageGrid(64)
 RADIUS, CX, CY = 0.2, 0.08, -0.05

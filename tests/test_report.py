@@ -12,7 +12,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from omegaconf import OmegaConf
 
-from nct.report import (
+from nct.analysis.report import (
     Job,
     aggregate,
     collect_jobs,

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
-from nct.metrics import dice
-from nct.scanner import ImageGrid
-from nct.sdf import binarise, masks_to_sdf
+from nct.run.metrics import dice
+from nct.acquisition.scanner import ImageGrid
+from nct.method.sdf import binarise, masks_to_sdf
 
 GRID = ImageGrid(64)
 RADIUS = 0.25

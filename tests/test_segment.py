@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from nct.errors import NoObjectError
-from nct.metrics import dice
-from nct.segment import segment
-from nct.scanner import ImageGrid
+from nct.run.metrics import dice
+from nct.method.segment import segment
+from nct.acquisition.scanner import ImageGrid
 
 
 def two_object_frames(n_frames: int = 20, noise: float = 0.05, seed: int = 0):
@@ -74,10 +74,10 @@ def test_pure_noise_holds_no_object():
 def test_heavy_noise_still_gets_an_initialisation(noise_i0):
     """At a few photons per ray (Algorithm 1 alone crashed on some seeds at I0 = 3), the object is
     still found near its place: the masks overlap the disc's."""
-    from nct.phantoms import CircleConf, build_phantom
-    from nct.projector import fbp_frames
-    from nct.scanner import Scanner
-    from nct.simulate import simulate
+    from nct.scenes.phantoms import CircleConf, build_phantom
+    from nct.physics.projector import fbp_frames
+    from nct.acquisition.scanner import Scanner
+    from nct.scenes.simulate import simulate
 
     grid, scanner = ImageGrid(48), Scanner(240, 1.0, 0.25, 0.0, 48, 1 / 48)
     phantom = build_phantom(CircleConf(radius=0.15, orbit_radius=0.2, displacement_deg=100.0), 0.25)
@@ -112,7 +112,7 @@ def test_one_dimensional_labels_are_those_of_the_mixture():
     chunked or not, on overlapping classes where the boundaries matter."""
     from sklearn.mixture import GaussianMixture
 
-    from nct.segment import predict_1d
+    from nct.method.segment import predict_1d
 
     images, _ = two_object_frames(noise=0.2)
     values = images.reshape(-1)

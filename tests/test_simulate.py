@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from nct.phantoms import CircleConf, StaticConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import attenuation_scale, simulate
+from nct.scenes.phantoms import CircleConf, StaticConf, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import attenuation_scale, simulate
 
 GRID = ImageGrid(32, extent=1.0)
 SCANNER = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=48, bin_spacing=1 / 32)

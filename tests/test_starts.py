@@ -11,13 +11,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import nct.method
-from nct.method import candidate_starts, reconstruct
-from nct.method_conf import LossConf
-from nct.phantoms import EllipseConf, Signal, build_phantom, ComposedConf
-from nct.scanner import ImageGrid, Scanner
-from nct.segment import Segmentation, segmentations
-from nct.simulate import simulate
+import nct.method.reconstruct
+from nct.method.reconstruct import candidate_starts, reconstruct
+from nct.method.conf import LossConf
+from nct.scenes.phantoms import EllipseConf, Signal, build_phantom, ComposedConf
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.method.segment import Segmentation, segmentations
+from nct.scenes.simulate import simulate
 from tiny_fits import INIT, MODEL, OPTIM, TRAINER
 
 GRID = ImageGrid(32)
@@ -47,7 +47,7 @@ def split_first(seg: Segmentation) -> Segmentation:
 
 def run(sino, times, starts: int, rank, monkeypatch):
     """Reconstruct with the judge's ranking replaced by ``rank(real ranking)``, trying ``starts`` starts."""
-    monkeypatch.setattr(nct.method, "segmentations", lambda *a, **k: rank(segmentations(*a, **k)))
+    monkeypatch.setattr(nct.method.reconstruct, "segmentations", lambda *a, **k: rank(segmentations(*a, **k)))
     return reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none", n_objects=2,
                        optim=LONGER, init=replace(INIT, starts=starts))
 

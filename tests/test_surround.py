@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nct.capacity import CapacityConf
-from nct.metrics import dice
-from nct.projector import fbp_frames
-from nct.scanner import ImageGrid
+from nct.method.capacity import CapacityConf
+from nct.run.metrics import dice
+from nct.physics.projector import fbp_frames
+from nct.acquisition.scanner import ImageGrid
 from test_init_robust import LONGER, orbit, still
 from tiny_fits import fit_composed
 

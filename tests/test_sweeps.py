@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from omegaconf import DictConfig
 
-from nct.cli import CONFIG_MODULE
-from nct.io import save_sinogram
-from nct.report import main as report_main
-from nct.report import planned_overrides, write_report
-from nct.sinogram import Sinogram
+from nct.cli.main import CONFIG_MODULE
+from nct.acquisition.io import save_sinogram
+from nct.analysis.report import main as report_main
+from nct.analysis.report import planned_overrides, write_report
+from nct.acquisition.sinogram import Sinogram
 
 from conftest import compose_config
 

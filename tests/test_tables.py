@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.tables import MISSING, fmt, markdown_table, write_csv
+from nct.run.tables import MISSING, fmt, markdown_table, write_csv
 
 
 def test_markdown_table_formats_numbers():

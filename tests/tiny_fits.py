@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from nct.capacity import CapacityConf
-from nct.fields import ModelConf
-from nct.method import reconstruct
-from nct.method_conf import InitConf, LossConf, OptimConf, TrainerConf
-from nct.phantoms import CircleConf, ComposedConf, build_phantom
-from nct.scanner import ImageGrid, Scanner
-from nct.simulate import simulate
-from nct.sinogram import Sinogram
+from nct.method.capacity import CapacityConf
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import reconstruct
+from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.scenes.phantoms import CircleConf, ComposedConf, build_phantom
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.scenes.simulate import simulate
+from nct.acquisition.sinogram import Sinogram
 
 MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
 TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)

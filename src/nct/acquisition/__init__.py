@@ -1,0 +1,1 @@
+"""What was measured and how: scan geometry, scanner, sinogram, files, rebinning."""

@@ -1,0 +1,1 @@
+"""The command-line entry points (nct, nct-export, nct-report)."""

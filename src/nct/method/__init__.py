@@ -1,0 +1,1 @@
+"""The reconstruction method: fields, render, initialisation, Lightning stages and selection."""

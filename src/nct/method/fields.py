@@ -1,0 +1,255 @@
+"""Signed-distance fields g(x, t) = g_E(x) + g_V(x, t) of K objects (paper Sec. IV-A).
+
+Time enters only through a Fourier basis, so the spatial parts see x alone: evaluate them once on
+the grid and form g(., t) for any number of times by a product with the basis (see ``Field.sdf``).
+Two families hold the spatial parts: SIRENs (the paper's) and explicit multi-resolution grids
+(``GridField``: bilinear lookups instead of a network, several times cheaper per step).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from nct.method.conf import ModelConf
+
+HIDDEN_OMEGA = 30.0  # SIREN's frequency for hidden layers (Sitzmann et al.); its init compensates
+
+
+class Siren(nn.Module):
+    """Sine-activated MLP (Sitzmann et al. 2020): [P, in] -> [P, out]; the last layer is linear."""
+
+    def __init__(self, n_in: int, width: int, depth: int, n_out: int, omega0: float) -> None:
+        super().__init__()
+        sizes = [n_in] + [width] * depth
+        self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
+        self.out = nn.Linear(width, n_out)
+        self.omegas = [omega0] + [HIDDEN_OMEGA] * (depth - 1)
+        with torch.no_grad():
+            for i, layer in enumerate(self.hidden):
+                bound = 1 / layer.in_features if i == 0 else math.sqrt(6 / layer.in_features) / HIDDEN_OMEGA
+                layer.weight.uniform_(-bound, bound)
+            bound = math.sqrt(6 / width) / HIDDEN_OMEGA
+            self.out.weight.uniform_(-bound, bound)
+
+    def forward(self, x: Tensor) -> Tensor:
+        for omega, layer in zip(self.omegas, self.hidden):
+            x = torch.sin(omega * layer(x))
+        return self.out(x)
+
+
+@dataclass
+class Coefficients:
+    """The field's networks evaluated at P points: static [K, P], temporal [2M, K, P] (None if M = 0)."""
+
+    static: Tensor
+    temporal: Tensor | None
+
+
+class Field(nn.Module):
+    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs;
+    an object made static (`set_static`) keeps the second term at one time.
+
+    x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
+    w_i ~ N(0, f_max) are drawn once from ``generator``. The model also owns each object's
+    intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``), so one
+    checkpoint holds everything that renders the image.
+    """
+
+    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
+        super().__init__()
+        self.n_objects = n_objects
+        self.log_intensities = nn.Parameter(torch.zeros(n_objects))
+        self.n_terms = conf.n_terms
+        self.static = self.spatial(conf, n_objects, temporal=False)
+        self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
+        self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
+        self.register_buffer("moving", torch.ones(n_objects))  # 0: the object is held at static_time
+        self.register_buffer("static_time", torch.zeros(()))
+
+    @staticmethod
+    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
+        """The module mapping points [P, 2] to ``n_out`` values [P, n_out]: a SIREN here."""
+        if temporal:
+            return Siren(2, conf.temporal_width, conf.temporal_depth, n_out, conf.omega0)
+        return Siren(2, conf.width, conf.depth, n_out, conf.omega0)
+
+    @property
+    def intensities(self) -> Tensor:
+        """a(k) [K]."""
+        return self.log_intensities.exp()
+
+    @torch.no_grad()
+    def set_intensities(self, values: Tensor) -> None:
+        """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
+        self.log_intensities.copy_(values.to(self.log_intensities).log())
+
+    @torch.no_grad()
+    def set_static(self, static: Tensor, at: float) -> None:
+        """Hold the objects where ``static`` [K] bool is set at their shape at time ``at``
+        (rotations) from now on: g_k(x, t) = g_k(x, at), the field unchanged at that time."""
+        self.moving.copy_((~static.to(torch.bool)).to(self.moving))
+        self.static_time.fill_(at)
+
+    def shape_parameters(self) -> list[nn.Parameter]:
+        """The parameters of g (all but a(k))."""
+        return [p for p in self.parameters() if p is not self.log_intensities]
+
+    def coefficients(self, xy: Tensor) -> Coefficients:
+        """Evaluate both spatial parts once at points ``xy`` [P, 2]; time enters later by ``sdf``."""
+        return self._split(self.static(xy).T, None if self.temporal is None else self.temporal(xy).T)
+
+    def on_lattice(self, size: int) -> Coefficients:
+        """``coefficients`` at the pixel centres of a size x size image (rows down, P = size**2)."""
+        return self.coefficients(lattice_points(size, self.omega.device))
+
+    def _split(self, static: Tensor, temporal: Tensor | None) -> Coefficients:
+        """Coefficients from static [K, P] and temporal [2MK, P] values."""
+        if temporal is None:
+            return Coefficients(static, None)
+        return Coefficients(static, temporal.reshape(2 * self.n_terms, self.n_objects, -1))
+
+    def basis(self, t: Tensor) -> Tensor:
+        """The Fourier basis with the 1/M factor: t [T] -> [T, 2M] (sines, then cosines)."""
+        phase = 2 * math.pi * t[:, None] * self.omega[None, :]
+        return torch.cat([torch.sin(phase), torch.cos(phase)], dim=1) / self.n_terms
+
+    def basis_rate(self, t: Tensor) -> Tensor:
+        """d basis / dt: t [T] -> [T, 2M]."""
+        rate = 2 * math.pi * self.omega[None, :]
+        phase = rate * t[:, None]
+        return torch.cat([rate * torch.cos(phase), -rate * torch.sin(phase)], dim=1) / self.n_terms
+
+    def sdf(self, c: Coefficients, t: Tensor) -> Tensor:
+        """g at times t [T] from coefficients at P points: [T, K, P]."""
+        static = c.static.expand(t.shape[0], -1, -1)
+        if c.temporal is None:
+            return static
+        # Per object: the basis at t, or at static_time for an object made static: [T, 2M, K].
+        held = self.basis(self.static_time[None])[0][None, :, None] * (1 - self.moving)
+        weights = self.basis(t)[:, :, None] * self.moving + held
+        return static + torch.einsum("tmk,mkp->tkp", weights, c.temporal)
+
+    def sdf_rate(self, c: Coefficients, t: Tensor) -> Tensor:
+        """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model."""
+        if c.temporal is None:
+            return c.static.new_zeros(t.shape[0], *c.static.shape)
+        return torch.einsum("tmk,mkp->tkp", self.basis_rate(t)[:, :, None] * self.moving, c.temporal)
+
+    def describe(self) -> dict:
+        """Capacity summary: family, sizes, parameter count, frequencies."""
+        return {
+            "n_params": sum(p.numel() for p in self.shape_parameters()),
+            "n_terms": self.n_terms,
+            "static": self.temporal is None or not bool(self.moving.any()),
+            "static_objects": [k for k in range(self.n_objects) if self.temporal is None or not self.moving[k]],
+            "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
+        }
+
+
+class MultiGrid(nn.Module):
+    """Sum of ``levels`` grids of ``n_out`` channels, res, res/2, ... cells per side, looked up
+    bilinearly: [P, 2] in [-1, 1] -> [P, n_out]. Starts at zero; coarse levels move whole regions
+    per step, fine ones the detail, so a fit goes coarse to fine by itself."""
+
+    def __init__(self, n_out: int, resolution: int, levels: int) -> None:
+        super().__init__()
+        self.grids = nn.ParameterList(
+            nn.Parameter(torch.zeros(1, n_out, resolution >> i, resolution >> i)) for i in range(levels)
+        )
+
+    def forward(self, xy: Tensor) -> Tensor:
+        where = xy.view(1, 1, -1, 2)
+        total = sum(F.grid_sample(g, where, mode="bilinear", padding_mode="border", align_corners=True)
+                    for g in self.grids)
+        return total[0, :, 0].T
+
+    def on_lattice(self, size: int) -> Tensor:
+        """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
+        lookups on a lattice are separable, two small matrix products per level (much cheaper
+        than ``grid_sample``'s backward on a CPU)."""
+        total = 0
+        for g in self.grids:
+            rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
+            total = total + rows @ g[0] @ cols.T
+        return total.reshape(total.shape[0], -1)
+
+
+class GridField(Field):
+    """The same g(x, t) with explicit grids for g_E and for the Fourier coefficients of g_V."""
+
+    @staticmethod
+    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
+        return MultiGrid(n_out, conf.temporal_resolution if temporal else conf.resolution, conf.levels)
+
+    def on_lattice(self, size: int) -> Coefficients:
+        return self._split(self.static.on_lattice(size),
+                           None if self.temporal is None else self.temporal.on_lattice(size))
+
+
+def pixel_centres(size: int) -> Tensor:
+    """Centres of ``size`` pixels spanning [-1, 1], increasing: [size] float32."""
+    return (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
+
+
+@lru_cache(maxsize=8)
+def lattice_points(size: int, device: torch.device | None = None) -> Tensor:
+    """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2].
+    Cached per device (evaluated every step, no copy): do not modify the result."""
+    u = pixel_centres(size)
+    y, x = torch.meshgrid(-u, u, indexing="ij")
+    return torch.stack([x.ravel(), y.ravel()], dim=1).to(device)
+
+
+def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
+    """Linear interpolation from ``cells`` nodes spanning [-1, 1] to coordinates u [n]: [n, cells]."""
+    return _linear_weights((u + 1) / 2 * (cells - 1), cells)
+
+
+def _linear_weights(pos: Tensor, cells: int) -> Tensor:
+    """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [n] in node
+    units, constant beyond the ends: [n, cells]."""
+    pos = pos.clamp(0, cells - 1)
+    left = pos.floor().long().clamp(min=0, max=max(cells - 2, 0))
+    weight = pos - left
+    rows = torch.arange(pos.shape[0])
+    m = torch.zeros(pos.shape[0], cells, dtype=pos.dtype, device=pos.device)
+    m[rows, left] = 1 - weight
+    m[rows, left + 1] = weight
+    return m
+
+
+@lru_cache(maxsize=8)
+def upsampling_matrix(size: int, lattice: int, device: torch.device | None = None,
+                      dtype: torch.dtype = torch.float32) -> Tensor:
+    """Bilinear resampling, one axis, from the pixel centres of a ``lattice``-pixel image to those
+    of a ``size``-pixel image of the same extent: [size, lattice] (F.interpolate's
+    align_corners=False, as a matrix: its backward is a product too, far cheaper on a CPU).
+    Cached per device and dtype: do not modify."""
+    return _linear_weights((pixel_centres(size) + 1) / 2 * lattice - 0.5, lattice).to(device, dtype)
+
+
+def upsample(images: Tensor, size: int) -> Tensor:
+    """Bilinear upsampling of square images [..., n, n] to [..., size, size] (see upsampling_matrix)."""
+    m = upsampling_matrix(size, images.shape[-1], images.device, images.dtype)
+    return m @ images @ m.T
+
+
+@lru_cache(maxsize=32)
+def lattice_interpolation(size: int, cells: int, device: torch.device | None = None) -> tuple[Tensor, Tensor]:
+    """Bilinear lookup of a cells x cells grid at the pixel centres of a size x size image, as
+    matrices for image rows (y runs down) and columns: two [size, cells]. Cached per device: do not modify."""
+    u = pixel_centres(size)
+    return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
+
+
+def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:
+    """The field of ``conf.family`` for ``n_objects`` objects."""
+    if n_objects < 1:
+        raise ValueError(f"n_objects must be >= 1, got {n_objects}")
+    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)

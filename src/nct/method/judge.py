@@ -1,0 +1,52 @@
+"""Object intensities from the sinogram: which of Algorithm 1's candidate levels, and what a(k),
+explain the measured views best with the masks they draw.
+
+Algorithm 1 reads each object's level off the FBP frames. Where an object moves fast, FBP spreads
+it (a half-turn window sees it at many places), so its level there depends on the motion's
+phase; the thin rim of a body around a nested object is all partial volume, and a mixture class
+there looks like a blur class. The line integrals hold the objects' true attenuation: with the
+masks fixed, the views are linear in a(k), so each candidate's intensities follow from a
+nonnegative least-squares fit over the fitted views, and its residual says how well it explains them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from scipy.optimize import nnls
+
+from nct.acquisition.geometry import Geometry
+from nct.physics.projector import project
+from nct.method.segment import Judge
+
+MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more ...
+MAX_PIXELS = 2**25  # ... and fewer where their mask images would hold more pixels than this (memory)
+MIN_SHARE = 0.05  # an object's intensity is at least this share of the brightest (log-parameterised a(k) > 0)
+
+
+def sinogram_judge(
+    mask_times: torch.Tensor,
+    values: torch.Tensor,
+    angles: torch.Tensor,
+    times: torch.Tensor,
+    geometry: Geometry,
+    extent: float,
+) -> Judge:
+    """A `segment.Judge` over up to MAX_VIEWS of the views values [V, n_bins], angles [V] rad,
+    times [V], spread evenly: each view sees the mask frame nearest its time (``mask_times`` [F],
+    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||."""
+
+    @torch.no_grad()
+    def judge(masks: np.ndarray) -> tuple[float, np.ndarray]:
+        n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // masks[0].size))
+        pick = np.linspace(0, values.shape[0] - 1, n).round().astype(int)
+        nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
+        images = torch.from_numpy(masks).float()[nearest]  # [n, K, H, W]
+        k = images.shape[1]
+        per_object = project(images.transpose(0, 1).reshape(k * n, *images.shape[2:]), angles[pick].repeat(k),
+                             geometry, extent)  # [K * n, n_bins]
+        measured = values[pick].reshape(-1).double().numpy()
+        a, residual = nnls(per_object.reshape(k, -1).T.double().numpy(), measured)
+        return residual / max(float(np.linalg.norm(measured)), 1e-30), np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
+
+    return judge

@@ -1,0 +1,1 @@
+"""How a scene becomes a sinogram: the differentiable projector, FBP and the data term."""

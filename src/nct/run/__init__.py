@@ -1,0 +1,1 @@
+"""One run from config to files: pipeline, metrics, export, tracking, outcome."""

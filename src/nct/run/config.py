@@ -1,0 +1,285 @@
+"""Hydra structured-config schema: one dataclass per config group, validated at start.
+
+Each YAML option under ``nct/conf/<group>/`` (package data) extends its group's schema (``defaults: [<schema>]``),
+so a misspelt key or a value of the wrong type fails when the config is composed, naming the
+key. Range checks live in each dataclass's ``__post_init__`` and run in `validate`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field, fields, is_dataclass
+from typing import Any, Optional
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from nct.method.capacity import CapacityConf
+from nct.errors import InputError, require
+from nct.acquisition.geometry import FanGeometry
+from nct.scenes.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.physics.conf import FBPConf
+from nct.method.conf import (LOGGERS, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
+                              RenderConf, TrainerConf)
+
+
+@dataclass
+class SimulateConf:
+    """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless)."""
+
+    name: str = "simulate"
+    noise_i0: Optional[float] = None
+
+    def __post_init__(self) -> None:
+        if self.noise_i0 is not None and not self.noise_i0 > 0:
+            raise ValueError(f"data.noise_i0 must be > 0 (or null for no noise), got {self.noise_i0}")
+
+
+@dataclass
+class FileConf:
+    """A sinogram file in the documented ``.npz`` format, or a TIFF stack whose other keys are in the
+    ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects to fit.
+    ``extent``: side of the reconstructed field of view in the file's length unit when the file
+    has no truth (null: the diameter every view covers); with a truth, its grid.
+    ``i0``: incident counts per ray behind the values' Poisson noise, for ``loss.data_term=poisson``
+    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data)."""
+
+    name: str = "file"
+    path: str = MISSING
+    sidecar: Optional[str] = None
+    n_objects: int = 1
+    extent: Optional[float] = None
+    i0: Optional[float] = None
+
+    def __post_init__(self) -> None:
+        if self.n_objects < 1:
+            raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
+        if self.extent is not None and not self.extent > 0:
+            raise ValueError(f"data.extent must be > 0 (or null for the detector's width), got {self.extent}")
+        if self.i0 is not None and not (self.i0 > 0 and math.isfinite(self.i0)):
+            raise ValueError(f"data.i0 must be a finite number > 0 (or null: the file's, else estimated), got {self.i0}")
+
+
+@dataclass
+class ScannerConf:
+    """Parallel-beam acquisition; ``bin_spacing`` null means image.extent / n_bins; ``detector_offset``
+    shifts the detector along itself (``geometry.py``)."""
+
+    name: str = "parallel"
+    views_per_rotation: int = 720
+    rotations: float = 1.0
+    rotation_time: float = 0.25
+    start_deg: float = 0.0
+    n_bins: int = 128
+    bin_spacing: Optional[float] = None
+    detector_offset: float = 0.0
+
+    def build(self, extent: float) -> Scanner:
+        """The scanner of a field of view ``extent`` a side (``ValueError`` naming the key of a bad value)."""
+        spacing = extent / self.n_bins if self.bin_spacing is None else self.bin_spacing
+        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time, math.radians(self.start_deg),
+                       self.n_bins, spacing, detector_offset=self.detector_offset)
+
+
+@dataclass
+class FanScannerConf(ScannerConf):
+    """Fan-beam acquisition (``geometry.FanGeometry``): the source ``source_distance`` from the axis, the
+    detector (``detector_shape`` flat or curved) ``detector_distance`` beyond it; ``bin_spacing`` null
+    means the n_bins bins just span the fan through the field of view's inscribed disc."""
+
+    name: str = "fan"
+    source_distance: float = 2.0
+    detector_distance: float = 2.0
+    detector_shape: str = "flat"
+
+    def build(self, extent: float) -> Scanner:
+        half_diagonal = extent / math.sqrt(2)
+        require(self.source_distance > half_diagonal, "scanner.source_distance",
+                f"> image.extent / sqrt(2) = {half_diagonal:.4g} (the source outside the image)", self.source_distance)
+        spacing = self.bin_spacing
+        if spacing is None:
+            try:
+                spacing = FanGeometry.covering(extent / 2, self.n_bins, self.source_distance, self.detector_distance,
+                                               self.detector_shape).bin_spacing
+            except ValueError as err:
+                raise ValueError(f"scanner.{err}") from None
+        return Scanner(self.views_per_rotation, self.rotations, self.rotation_time, math.radians(self.start_deg),
+                       self.n_bins, spacing, self.source_distance, self.detector_distance, self.detector_shape,
+                       self.detector_offset)
+
+
+@dataclass
+class ImageConf:
+    """Reconstruction grid (``size`` pixels a side over ``extent``) and output frames per rotation."""
+
+    size: int = 128
+    extent: float = 1.0
+    frames_per_rotation: int = 36
+
+    def __post_init__(self) -> None:
+        ImageGrid(self.size, self.extent)
+        if self.frames_per_rotation < 1:
+            raise ValueError(f"image.frames_per_rotation must be >= 1, got {self.frames_per_rotation}")
+
+    def build(self) -> ImageGrid:
+        return ImageGrid(self.size, self.extent)
+
+
+@dataclass
+class LoggerConf:
+    """Training logger: tensorboard, csv or none."""
+
+    name: str = "tensorboard"
+
+    def __post_init__(self) -> None:
+        if self.name not in LOGGERS:
+            raise ValueError(f"logger.name must be one of {', '.join(LOGGERS)}, got '{self.name}'")
+
+
+@dataclass
+class ExportConf:
+    """What a run writes besides metrics: TIFF stacks, PNG strip, GIF movie (``fps`` frames/s)."""
+
+    tiff: bool = True
+    png: bool = True
+    gif: bool = True
+    fps: float = 8.0
+    strip_frames: int = 8
+
+    def __post_init__(self) -> None:
+        if not self.fps > 0:
+            raise ValueError(f"export.fps must be > 0, got {self.fps}")
+        if self.strip_frames < 1:
+            raise ValueError(f"export.strip_frames must be >= 1, got {self.strip_frames}")
+
+
+@dataclass
+class NCTConf:
+    """The whole run. ``seed`` fixes every random source (0 is a seed like any other).
+
+    ``threads``: torch's intra-op threads (null: torch's default, one per core); 1 is much faster
+    when several jobs share the cores.
+    """
+
+    data: Any = MISSING
+    phantom: Any = MISSING
+    scanner: ScannerConf = field(default_factory=ScannerConf)
+    image: ImageConf = field(default_factory=ImageConf)
+    fbp: FBPConf = field(default_factory=FBPConf)
+    model: ModelConf = field(default_factory=ModelConf)
+    capacity: CapacityConf = field(default_factory=CapacityConf)
+    loss: LossConf = field(default_factory=LossConf)
+    optim: OptimConf = field(default_factory=OptimConf)
+    render: RenderConf = field(default_factory=RenderConf)
+    init: InitConf = field(default_factory=InitConf)
+    heldout: HeldoutConf = field(default_factory=HeldoutConf)
+    trainer: TrainerConf = field(default_factory=TrainerConf)
+    logger: LoggerConf = field(default_factory=LoggerConf)
+    export: ExportConf = field(default_factory=ExportConf)
+    seed: int = 0
+    method: str = "nct"
+    resume: bool = False
+    threads: Optional[int] = None
+
+    def __post_init__(self) -> None:
+        self.scanner.build(self.image.extent)
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"threads must be >= 1 (or null for torch's default), got {self.threads}")
+        if self.method not in ("nct", "fbp"):
+            raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
+        if self.capacity.auto and self.heldout.every < 2:
+            raise ValueError("capacity=auto scores each model on held-out views: heldout.every must be "
+                             f">= 2, got {self.heldout.every}")
+
+
+SCHEMAS: dict[str, dict[str, type]] = {
+    "data": {"simulate": SimulateConf, "file": FileConf},
+    "phantom": {"circle": CircleConf, "heart": HeartConf, "letters": LettersConf,
+                "static": StaticConf, "composed": ComposedConf},
+    "scanner": {"parallel": ScannerConf, "fan": FanScannerConf},
+    "image": {"default": ImageConf},
+    "fbp": {"default": FBPConf},
+    "model": {"default": ModelConf},
+    "capacity": {"default": CapacityConf},
+    "loss": {"default": LossConf},
+    "optim": {"default": OptimConf},
+    "render": {"default": RenderConf},
+    "init": {"default": InitConf},
+    "heldout": {"default": HeldoutConf},
+    "trainer": {"default": TrainerConf},
+    "logger": {"default": LoggerConf},
+}
+
+
+def register_configs() -> None:
+    """Store the schemas: ``nct_schema`` for the primary config, ``schema_<group>_<name>`` per option.
+
+    An option extends its schema with ``defaults: [/schema_<group>_<name>@_here_]``. The schemas
+    are stored outside any config group, so that ``nct --help`` lists only the groups users pick.
+    """
+    cs = ConfigStore.instance()
+    cs.store(name="nct_schema", node=NCTConf)
+    for group, options in SCHEMAS.items():
+        for name, node in options.items():
+            cs.store(name=f"schema_{group}_{name}", node=node)
+
+
+def validate(cfg: DictConfig) -> NCTConf:
+    """Build the typed config, running every range check; raise `InputError` naming the key.
+
+    A key no schema declares is refused too, also one added with ``+`` (Hydra lets those through).
+    """
+    unknown = next(undeclared_keys(cfg), None)
+    if unknown is not None:
+        raise InputError(unknown_key(*unknown))
+    try:
+        conf = OmegaConf.to_object(cfg)
+    except OmegaConfBaseException as err:
+        raise InputError(describe(err)) from None
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    if not isinstance(conf, NCTConf):
+        raise InputError("the composed config is not an nct config (primary config must extend nct_schema)")
+    return conf
+
+
+def undeclared_keys(node: DictConfig, prefix: str = "") -> Iterator[tuple[str, type]]:
+    """(full key, schema) of every key of ``node`` and its children that its node's schema lacks."""
+    schema = OmegaConf.get_type(node)
+    declared = {f.name for f in fields(schema)} if is_dataclass(schema) else None
+    for key, child in node.items_ex(resolve=False):
+        full = f"{prefix}{key}"
+        if declared is not None and key not in declared:
+            yield full, schema
+        elif isinstance(child, DictConfig):
+            yield from undeclared_keys(child, full + ".")
+        elif isinstance(child, ListConfig):
+            for i, item in enumerate(child):
+                if isinstance(item, DictConfig):
+                    yield from undeclared_keys(item, f"{full}[{i}].")
+
+
+def unknown_key(full_key: str, schema: type) -> str:
+    """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean."""
+    parent, _, key = full_key.rpartition(".")
+    known = [f.name for f in fields(schema)]
+    close = difflib.get_close_matches(key, known, n=1)
+    where = f"{parent} ({schema.__name__})" if parent else "the config"
+    hint = f"did you mean {parent + '.' if parent else ''}{close[0]}?" if close else f"its keys: {', '.join(known)}"
+    return f"unknown key {full_key}: not a setting of {where}; {hint}"
+
+
+def describe(err: OmegaConfBaseException) -> str:
+    """An OmegaConf error in one line, with the full key when its message lacks it."""
+    return str(err).splitlines()[0] + _key_suffix(err)
+
+
+def _key_suffix(err: OmegaConfBaseException) -> str:
+    key = getattr(err, "full_key", None)
+    return f" (key: {key})" if key and f"{key} " not in str(err).splitlines()[0] + " " else ""

@@ -1,0 +1,253 @@
+"""One run, end to end: data -> FBP -> NeuralCT -> metrics -> files and TensorBoard.
+
+The run folder (see docs/ARCHITECTURE.md) always gets ``status.json``; a run that fails
+records its error there and leaves every other run's folder untouched.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import platform
+import time
+import traceback
+from dataclasses import dataclass, replace
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+from omegaconf import DictConfig
+
+from nct.run import export
+from nct.run.config import FileConf, NCTConf, validate
+from nct.errors import DivergenceError, InputError, MethodError
+from nct.acquisition.io import load_sinogram, save_sinogram
+from nct.run.metrics import FrameMetrics, frame_metrics, summarise
+from nct.scenes.phantoms import build_phantom
+from nct.physics.projector import fbp_frames
+from nct.acquisition.scanner import ImageGrid
+from nct.scenes.simulate import simulate
+from nct.acquisition.sinogram import Sinogram
+from nct.run.tables import write_csv
+from nct.run.tracking import run_hparams, write_capacity, write_frames, write_hparams, write_trace
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Acquisition:
+    """What the reconstruction works from: the data, the output grid and the output frame times [F]."""
+
+    sino: Sinogram
+    grid: ImageGrid
+    frame_times: np.ndarray
+    n_objects: int
+
+
+def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
+    """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has
+    one, else ``image.size`` pixels over ``data.extent``)."""
+    if isinstance(conf.data, FileConf):
+        sino = load_sinogram(conf.data.path, conf.data.sidecar)
+        sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
+        if sino.truth is not None:
+            grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
+            return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
+        extent = conf.data.extent if conf.data.extent is not None else 2 * sino.geometry.field_radius
+        grid = ImageGrid(conf.image.size, extent)
+        span = float(np.ptp(sino.angles)) / (2 * math.pi)
+        n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))
+        edges = np.linspace(sino.times[0], sino.times[-1], n + 1)
+        return Acquisition(sino, grid, 0.5 * (edges[:-1] + edges[1:]), conf.data.n_objects)
+    scanner = conf.scanner.build(conf.image.extent)
+    grid = conf.image.build()
+    phantom = build_phantom(conf.phantom, scanner.rotation_time)
+    frame_times = scanner.frame_times(conf.image.frames_per_rotation)
+    sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
+    return Acquisition(sino, grid, frame_times, len(phantom.intensities))
+
+
+def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict, list]:
+    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, extra metrics
+    and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
+    frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
+    extra: dict = {}
+    trace: list = []
+    if conf.method == "nct":
+        from nct.method.reconstruct import reconstruct
+
+        result = reconstruct(
+            acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
+            log_dir=out_dir, logger=conf.logger.name,
+            fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
+            capacity=conf.capacity, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
+            resume=conf.resume,
+        )
+        frames["nct"] = result.frames
+        extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "capacity": result.capacity,
+                 "stages": result.stages, "intensities": [float(a) for a in result.intensities], "init": result.init}
+        trace = result.trace
+    return frames, extra, trace
+
+
+def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
+    """Do one run into ``out_dir``; return what goes into ``metrics.json``."""
+    import lightning
+    import torch
+
+    if conf.threads is not None:
+        torch.set_num_threads(conf.threads)
+    lightning.seed_everything(conf.seed, workers=True, verbose=False)
+    rng = np.random.default_rng(conf.seed)
+    t0 = time.perf_counter()
+    acq = acquire(conf, rng)
+    save_sinogram(out_dir / "sinogram.npz", acq.sino)
+    frames, extra, trace = reconstruct_all(conf, acq, out_dir)
+    result: dict = {"times": acq.frame_times.tolist(), **extra}
+    scored: dict[str, FrameMetrics] = {}
+    if acq.sino.truth is not None:
+        truth = acq.sino.truth
+        scored = {name: frame_metrics(f, truth.frames, truth.level) for name, f in frames.items()}
+        result.update({name: summarise(m) for name, m in scored.items()})
+        if trace:
+            result["trace"] = score_trace(trace, truth.frames, truth.level)
+    elif trace:
+        log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
+                    "Dice-against-time curve")
+    result["wall_time_s"] = time.perf_counter() - t0
+    write_outputs(conf, cfg, acq, frames, scored, result, out_dir)
+    return result
+
+
+def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
+    """Each ``method.TracePoint``'s stage, step, seconds and median Dice and MSE against ``truth``
+    [F, H, W]: the rows of ``trace.csv``."""
+    rows = []
+    for point in trace:
+        s = summarise(frame_metrics(point.frames, truth, level))
+        rows.append({"stage": point.stage, "step": point.step, "seconds": point.seconds,
+                     "median_dice": s["median_dice"], "median_mse": s["median_mse"]})
+    return rows
+
+
+def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
+                  scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
+    """reconstruction.npz, TIFF stacks, PNG strip, GIF, metric plot and the TensorBoard summary."""
+    export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames)
+    shown = ({"truth": acq.sino.truth.frames} if acq.sino.truth is not None else {}) | frames
+    if conf.export.tiff:
+        export.save_tiffs(out_dir / "frames", shown)
+    if conf.export.png:
+        export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames)
+        if scored:
+            export.save_metric_plot(out_dir / "metrics.png", acq.frame_times, scored)
+        if "trace" in result:
+            export.save_trace_plot(out_dir / "trace.png", result["trace"], result["fbp"]["median_dice"])
+    if "trace" in result:
+        write_csv(result["trace"], out_dir / "trace.csv")
+    if conf.export.gif:
+        export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps)
+    if conf.logger.name == "tensorboard":
+        final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
+        final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
+        final["hp/wall_time_s"] = result["wall_time_s"]
+        capacity = result.get("capacity")
+        if capacity:
+            final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
+            write_capacity(out_dir / "tb", capacity)
+        if "trace" in result:
+            write_trace(out_dir / "tb", result["trace"])
+        overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
+        write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
+        write_frames(out_dir / "tb", shown)
+
+
+def _write_json(path: Path, payload: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(payload, indent=2))
+    tmp.replace(path)
+
+
+def read_status(out_dir: Path) -> dict | None:
+    """The run's status.json, or None when the folder has none (never started)."""
+    path = out_dir / "status.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+IGNORED_OVERRIDES = ("resume=", "hydra.")
+PACKAGES = ("nct", "torch", "numpy", "scipy", "scikit-image", "scikit-learn", "lightning", "hydra-core")
+
+
+def environment() -> dict[str, str]:
+    """Python's and the numerical packages' versions: the same seed gives the same metrics only
+    with the same versions (a solver or a random stream can change between releases)."""
+    def version(name: str) -> str:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:  # e.g. nct run from a source tree that was never installed
+            return "not installed"
+
+    return {"python": platform.python_version(), **{name: version(name) for name in PACKAGES}}
+
+
+def _settings(overrides: list[str] | None) -> list[str]:
+    """The overrides that define a job's result (not ``resume`` or Hydra's own), sorted."""
+    return sorted(o for o in overrides or [] if not o.startswith(IGNORED_OVERRIDES))
+
+
+def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) -> float | None:
+    """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
+
+    ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
+    skips a finished folder only when it was made with the same settings.
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    settings = _settings(overrides)
+    t0, versions = time.perf_counter(), environment()
+
+    def record(status: str, error: str | None = None, **extra) -> None:
+        _write_json(out_dir / "status.json", {"status": status, "error": error, "overrides": settings,
+                                              "wall_time_s": time.perf_counter() - t0, "environment": versions,
+                                              **extra})
+
+    previous = read_status(out_dir)
+    try:
+        conf = validate(cfg)
+        if previous is not None and previous.get("status") == "ok":
+            if not conf.resume:
+                raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
+                                 "or choose another output folder")
+    except InputError as err:
+        if previous is None or previous.get("status") != "ok":
+            record("failed", f"InputError: {err}")
+        raise
+    if conf.resume and previous is not None and previous.get("overrides") != settings:
+        # Left as it is: that run's record and checkpoints belong to its own settings.
+        raise InputError(f"resume: {out_dir} holds a run with other settings ({previous.get('overrides')}), "
+                         f"not {settings}: it cannot continue this one; use a new folder")
+    if conf.resume and previous is not None and previous.get("status") == "ok":
+        log.info("resume: %s already finished, skipped", out_dir)
+        return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
+    record("running")
+    try:
+        result = run(conf, cfg, out_dir)
+    except MethodError as err:  # expected: the reason is the whole story
+        record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}")
+        raise
+    except BaseException as err:
+        record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
+        raise
+    _write_json(out_dir / "metrics.json", result)
+    record("ok")
+    _log_summary(result, out_dir)
+    return result.get("heldout_loss")
+
+
+def _log_summary(result: dict, out_dir: Path) -> None:
+    for name in ("fbp", "nct"):
+        if name in result:
+            s = result[name]
+            log.info("%s: median Dice %.3f, median MSE %.5f, frames Dice>0.85 %.0f%%", name.upper(),
+                     s["median_dice"], s["median_mse"], 100 * s["share_dice_gt_0.85"])
+    log.info("wall time %.1f s; outputs in %s", result["wall_time_s"], out_dir)

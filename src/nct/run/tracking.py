@@ -1,0 +1,111 @@
+"""TensorBoard records of a finished run: image grids of the frames and the HParams session.
+
+The HParams session lives in its own folder, ``tb/hparams``, holding nothing but the ``hp/*``
+scalars: TensorBoard lists as metrics every scalar of a session's folder and its subfolders, so a
+session in ``tb/`` would also list what Lightning logs per stage in ``tb/<stage>`` (``epoch``,
+losses, learning rates). No experiment summary is written: TensorBoard then builds the table's
+columns from all sessions it sees, the keys that differ between runs first.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from omegaconf import DictConfig, OmegaConf
+from tensorboard.plugins.hparams.summary_v2 import hparams_pb
+from torch.utils.tensorboard import SummaryWriter
+
+from nct.run.tables import fmt, markdown_table
+
+#: Config keys that name a run in the HParams tab whatever its overrides: what was reconstructed, how.
+IDENTITY_KEYS = ("method", "data.name", "data.path", "phantom.name", "model.name", "seed")
+#: Where `write_hparams` puts the session, below the run's ``tb/``.
+HPARAMS_DIR = "hparams"
+
+HParam = bool | int | float | str
+
+
+def run_hparams(cfg: DictConfig, overrides: Sequence[str]) -> dict[str, HParam]:
+    """What the HParams tab shows of a run: `IDENTITY_KEYS` from ``cfg``, then every command-line override.
+
+    Override values keep their type (``trainer.refine=true`` a bool, ``seed=1`` a number); a group
+    choice (``model=grid``) is its option's name; lists and nulls are their text. Hydra's own
+    overrides (``hydra.*``, ``hydra/launcher=...``) and deletions (``~key``) are left out.
+    """
+    values: dict[str, HParam] = {}
+    for key in IDENTITY_KEYS:
+        value = OmegaConf.select(cfg, key, default=None)
+        if value is not None:
+            values[key] = _scalar(value)
+    for override in OverridesParser.create().parse_overrides(list(overrides)):
+        key = override.get_key_element().lstrip("+")
+        if not key.startswith("hydra") and not override.is_delete():
+            values[key] = _scalar(override.value())
+    return values
+
+
+def _scalar(value: object) -> HParam:
+    return value if isinstance(value, (bool, int, float, str)) else "null" if value is None else str(value)
+
+
+def write_hparams(tb_dir: Path, hparam_values: dict[str, HParam], final: dict[str, float | None]) -> Path:
+    """The run's HParams session in ``tb_dir/hparams``: ``hparam_values`` and the ``hp/*`` metrics in
+    ``final`` (None or non-finite: NaN); returns the session's folder."""
+    folder = tb_dir / HPARAMS_DIR
+    with SummaryWriter(log_dir=str(folder)) as w:
+        w.file_writer.add_summary(hparams_pb(hparam_values))
+        for k, v in final.items():
+            w.add_scalar(k, v if v is not None and math.isfinite(v) else float("nan"))
+    return folder
+
+
+def write_frames(tb_dir: Path, frames: dict[str, np.ndarray], n_images: int = 6) -> None:
+    """A truth|FBP|NCT image per shown frame, ``n_images`` frames spread over time.
+
+    frames: name -> [F,H,W]; images are scaled to [0, 1] by the truth's (or first method's) range.
+    """
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        ref = frames.get("truth", next(iter(frames.values())))
+        vmax = float(max(ref.max(), 1e-6))
+        n = next(iter(frames.values())).shape[0]
+        for i in np.unique(np.linspace(0, n - 1, min(n_images, n)).round().astype(int)):
+            row = np.concatenate([np.clip(f[i] / vmax, 0, 1) for f in frames.values()], axis=1)
+            w.add_image("frames/" + "|".join(frames), row, global_step=int(i), dataformats="HW")
+
+
+def write_capacity(tb_dir: Path, capacity: dict) -> None:
+    """The model's capacity as text (family, terms, parameters, the temporal band and why, each
+    object's static or temporal model and, if the terms were chosen automatically, why)
+    and the held-out loss of each fitted rung as ``capacity/heldout_loss`` over the term count."""
+    tb_dir.mkdir(parents=True, exist_ok=True)
+    lines = [f"{capacity['family']} field, {capacity['n_terms']} temporal terms, {capacity['n_params']} parameters, "
+             f"F_max {fmt(capacity['f_max'])} cycles/rotation"]
+    if capacity.get("band"):
+        lines.append(f"temporal band: {capacity['band']['reason']}")
+    objects = capacity.get("objects")
+    if objects:
+        lines += [f"object {k}: boundary motion {fmt(o['motion_px'])} px after the fit: {o['model']} "
+                  f"(static below {fmt(objects['static_below_px'])} px)" for k, o in enumerate(objects["per_object"])]
+    choice = capacity.get("choice")
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        if choice:
+            rows = [[r["n_terms"], fmt(r["heldout_loss"], 5), r["n_params"]] for r in choice["ladder"]]
+            lines += [f"chosen automatically: {choice['reason']}", "",
+                      markdown_table(["terms", "held-out loss", "parameters"], rows)]
+            for rung in choice["ladder"]:
+                w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
+        w.add_text("capacity", "\n".join(lines))
+
+
+def write_trace(tb_dir: Path, trace: list[dict]) -> None:
+    """The Dice-against-time curve as ``trace/median_dice`` and ``trace/median_mse`` scalars whose
+    step is the snapshot's time into the reconstruction in milliseconds (TensorBoard's STEP axis)."""
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        for row in trace:
+            ms = round(1000 * row["seconds"])
+            w.add_scalar("trace/median_dice", row["median_dice"], global_step=ms)
+            w.add_scalar("trace/median_mse", row["median_mse"], global_step=ms)

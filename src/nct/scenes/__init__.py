@@ -1,0 +1,1 @@
+"""Truth for experiments: phantoms and their simulated sinograms."""
