@@ -28,7 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.analysis.benchmarking import QUIET, Job, Record, benchmark_parser, group, run_jobs, seed_stats
+from nct.analysis.benchmarking import (
+    QUIET,
+    Job,
+    Record,
+    benchmark_parser,
+    group,
+    run_jobs,
+    seed_stats,
+)
 from nct.run.tables import markdown_table, write_csv
 
 SCENES: dict[str, tuple[str, ...]] = {

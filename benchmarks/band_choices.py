@@ -21,10 +21,10 @@ import shutil
 import sys
 from pathlib import Path
 
-from nct.method.capacity import CapacityConf
 from nct.acquisition.io import load_sinogram
-from nct.method.reconstruct import rotations_spanned
+from nct.method.capacity import CapacityConf
 from nct.method.conf import ModelConf
+from nct.method.reconstruct import rotations_spanned
 
 
 def heldout(call: Path, scene: str) -> float | None:

@@ -22,8 +22,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from nct.method.capacity import CapacityConf, band_kept
-from nct.method.reconstruct import BAND_PREFIX
 from nct.method.race import HeldoutHistory, lost
+from nct.method.reconstruct import BAND_PREFIX
 
 
 def kept_fit(stages: dict, prefix: str) -> str:

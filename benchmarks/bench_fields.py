@@ -12,10 +12,10 @@ import time
 
 import torch
 
-from nct.method.fields import ModelConf, build_field
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, OptimConf, RenderConf
+from nct.method.fields import ModelConf, build_field
 from nct.method.stages import SinogramFit, Views
 
 CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_terms": 0}), ("siren", {

@@ -11,9 +11,9 @@ import time
 import numpy as np
 import torch
 
-from nct.physics.projector import forward_project, fbp_frames
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
+from nct.physics.projector import fbp_frames, forward_project
 
 
 def best_of(fn, repeats: int = 5) -> float:

@@ -32,12 +32,12 @@ import numpy as np
 import torch
 from scipy.ndimage import distance_transform_edt
 
-from nct.method.fields import ModelConf, build_field, lattice_points
-from nct.run.metrics import dice
-from nct.scenes.phantoms import CircleConf, build_phantom
-from nct.method.render import project_frames
 from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.method.fields import ModelConf, build_field, lattice_points
+from nct.method.render import project_frames
+from nct.run.metrics import dice
 from nct.run.tables import markdown_table, write_csv
+from nct.scenes.phantoms import CircleConf, build_phantom
 
 SCANNER = Scanner()  # the default: 720 views of 128 bins, one rotation of 0.25 s
 FRAMES_PER_ROTATION = 60

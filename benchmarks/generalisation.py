@@ -38,7 +38,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scenes import Scene, draw_scenes, write_scene  # noqa: E402
 
 from nct.analysis.benchmarking import (  # noqa: E402
-    QUIET, Job, Record, benchmark_parser, companion, positive_int, run_jobs,
+    QUIET,
+    Job,
+    Record,
+    benchmark_parser,
+    companion,
+    positive_int,
+    run_jobs,
 )
 from nct.run.metrics import dice  # noqa: E402
 from nct.run.tables import markdown_table, write_csv  # noqa: E402

@@ -23,11 +23,11 @@ import numpy as np
 from hydra import compose, initialize_config_module
 
 import nct.method.reconstruct
-from nct.method import segment as seg
 from nct.cli.main import CONFIG_MODULE
-from nct.run.config import validate
 from nct.errors import InputError, MethodError
+from nct.method import segment as seg
 from nct.method.reconstruct import candidate_starts
+from nct.run.config import validate
 from nct.run.pipeline import acquire, reconstruct_all
 
 

@@ -25,8 +25,20 @@ import numpy as np  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
 from nct.analysis.benchmarking import (  # noqa: E402
-    QUIET, Job, Record, benchmark_parser, default_config, extrapolate_time, group, median_ok, pareto_front,
-    positive_int, run_jobs, scaled_steps, seed_stats, stage_steps,
+    QUIET,
+    Job,
+    Record,
+    benchmark_parser,
+    default_config,
+    extrapolate_time,
+    group,
+    median_ok,
+    pareto_front,
+    positive_int,
+    run_jobs,
+    scaled_steps,
+    seed_stats,
+    stage_steps,
 )
 from nct.run.metrics import DICE_GOOD  # noqa: E402
 from nct.run.tables import fmt, markdown_table, write_csv  # noqa: E402

@@ -25,8 +25,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
 from nct.analysis.benchmarking import (  # noqa: E402
-    QUIET, Job, Record, benchmark_parser, breakdown_point, default_config, group, median_ok, run_jobs,
-    scaled_steps, seed_stats,
+    QUIET,
+    Job,
+    Record,
+    benchmark_parser,
+    breakdown_point,
+    default_config,
+    group,
+    median_ok,
+    run_jobs,
+    scaled_steps,
+    seed_stats,
 )
 from nct.run.metrics import DICE_GOOD  # noqa: E402
 from nct.run.tables import markdown_table, write_csv  # noqa: E402

@@ -20,9 +20,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from band_race import history
 from omegaconf import OmegaConf
 
-from band_race import history
 from nct.method.conf import InitConf
 from nct.method.race import HeldoutHistory, lost, race
 

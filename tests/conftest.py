@@ -1,16 +1,55 @@
-"""Shared fixtures: the real Hydra config, composed in-process and shrunk to tiny sizes."""
+"""The one shared test module: the real Hydra config composed in-process and shrunk to tiny sizes,
+tiny method settings and scenes, closed-form geometry cases, an independent reference projector and
+the loader of benchmarks/ scripts.
+
+Shared by the method tests: a tiny model and short fits, and a tiny moving-disc acquisition.
+
+Shared by the geometry tests: every geometry the projector, simulation and FBP must handle, and
+the closed-form line integrals of ellipses along their rays, derived from the convention in
+``shared/DESIGN.md`` independently of ``nct.acquisition.geometry``.
+
+An independent reference projector for the tests: exact ray–pixel intersection lengths (Siddon's
+method) of a pixel image, along rays whose end points are derived here from the documented convention
+(README "Sinogram file", ``shared/DESIGN.md`` "Geometry convention"), not from ``nct.acquisition.geometry``.
+
+Convention: a point (x, y), x right, y up, origin at the image centre; pixel (row, col) of N covers
+x in [col, col + 1]·extent/N − extent/2 and y in [N − row − 1, N − row]·extent/N − extent/2. At view
+angle θ, d = (−sin θ, cos θ), e = (cos θ, sin θ); bin i at u_i = (i − (n − 1)/2)·bin_spacing + offset.
+Parallel: the ray through u·e along d. Fan: from the source −D·d to the flat detector point
+D_d·d + u·e, or on the curved detector at fan angle γ = u/(D + D_d) from the central ray, i.e. the
+point −D·d + (D + D_d)(cos γ·d + sin γ·e).
+"""
 
 from __future__ import annotations
 
+import importlib.util
+import sys
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig
 
+from nct.acquisition.geometry import FanGeometry, ParallelGeometry
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.acquisition.sinogram import Sinogram
 from nct.cli.main import CONFIG_MODULE
+from nct.method.capacity import CapacityConf
+from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import reconstruct
+from nct.scenes.phantoms import (
+    CircleConf,
+    ComposedConf,
+    EllipseConf,
+    Signal,
+    build_phantom,
+)
+from nct.scenes.simulate import simulate
 
 TINY = [
     "image.size=32",
@@ -60,3 +99,179 @@ def tiny_cfg():
 @pytest.fixture
 def run_dir(tmp_path: Path) -> Path:
     return tmp_path / "run"
+
+
+MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
+TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
+INIT = InitConf(frames_per_rotation=12)
+
+
+def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
+    """A disc (radius 0.2) orbiting at 60 deg/rotation, 60 views of 32 bins, noiseless; and 6 frame times."""
+    scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
+    phantom = build_phantom(CircleConf(radius=0.2, orbit_radius=0.15, displacement_deg=60.0), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    return simulate(phantom, scanner, grid, times, None, np.random.default_rng(0)), times
+
+
+def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None,
+                 capacity: CapacityConf | None = None):
+    """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,
+    simulated analytically and reconstructed with K = len(objects): (sinogram, times, NCTResult)."""
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
+    result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+                         n_objects=len(objects), optim=optim, init=INIT, capacity=capacity)
+    return sino, times, result
+
+
+LONGER = replace(OPTIM, fit_steps=200, lr_decay_every=60)
+
+
+def orbit(radius: float, orbit_radius: float, deg: float, intensity: float) -> EllipseConf:
+    """A disc on a circular orbit about the centre, ``deg`` of arc per rotation."""
+    c = deg / 360
+    return EllipseConf(x=Signal(amplitude=orbit_radius, cycles_per_rotation=c, phase_deg=90.0),
+                       y=Signal(amplitude=orbit_radius, cycles_per_rotation=c),
+                       a=Signal(radius), b=Signal(radius), intensity=Signal(intensity))
+
+
+def still(x: float, y: float, a: float, b: float, intensity: float) -> EllipseConf:
+    return EllipseConf(x=Signal(x), y=Signal(y), a=Signal(a), b=Signal(b), intensity=Signal(intensity))
+
+
+GEOMETRIES = {
+    "parallel": ParallelGeometry(96, 1 / 64),
+    "parallel-offset": ParallelGeometry(104, 1 / 64, detector_offset=0.06),
+    "fan-flat": FanGeometry(128, 0.0125, source_distance=2.0, detector_distance=1.0),
+    "fan-curved": FanGeometry(128, 0.0125, source_distance=2.0, detector_distance=1.0, detector_shape="curved"),
+    "fan-flat-offset": FanGeometry(144, 0.0125, 2.0, 1.0, "flat", detector_offset=0.1),
+    "fan-curved-offset": FanGeometry(144, 0.0125, 2.0, 1.0, "curved", detector_offset=-0.1),
+}
+
+# (cx, cy, semi-axis a along direction phi, semi-axis b, phi, intensity): off-centre and rotated.
+ELLIPSES = ((0.1, -0.05, 0.32, 0.22, 0.5, 1.0), (-0.18, 0.12, 0.1, 0.06, -0.4, 0.5))
+
+
+def detector_u(geometry, n_bins: int | None = None) -> np.ndarray:
+    """u_i = (i - (n_bins - 1)/2) bin_spacing + detector_offset: [n_bins]."""
+    n = geometry.n_bins if n_bins is None else n_bins
+    return (np.arange(n) - (n - 1) / 2) * geometry.bin_spacing + geometry.detector_offset
+
+
+def reference_rays(geometry, angles: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A point on each ray and its unit direction, [V, B, 2] each, straight from the convention:
+    parallel rays run along d through u e; fan rays leave the source -D d towards the flat detector
+    point Dd d + u e, or at fan angle u / (D + Dd) on the curved one."""
+    d = np.stack((-np.sin(angles), np.cos(angles)), -1)[:, None, :]
+    e = np.stack((np.cos(angles), np.sin(angles)), -1)[:, None, :]
+    u = u[None, :, None]
+    if isinstance(geometry, ParallelGeometry):
+        return u * e + 0 * d, d + 0 * u
+    source = -geometry.source_distance * d + 0 * u
+    if geometry.detector_shape == "flat":
+        towards = geometry.detector_distance * d + u * e - source
+    else:
+        gamma = u / (geometry.source_distance + geometry.detector_distance)
+        towards = np.cos(gamma) * d + np.sin(gamma) * e
+    return source, towards / np.linalg.norm(towards, axis=-1, keepdims=True)
+
+
+def ellipse_chords(points: np.ndarray, directions: np.ndarray, ellipses) -> np.ndarray:
+    """Line integrals of filled ellipses along the lines p + t v ([..., 2] each): [...].
+
+    In each ellipse's frame, |q + t w|_ellipse = 1 is A t^2 + B t + C = 0; the chord is sqrt(B^2 - 4AC) / A.
+    """
+    total = np.zeros(points.shape[:-1])
+    for cx, cy, a, b, phi, value in ellipses:
+        c, s = np.cos(phi), np.sin(phi)
+        qx, qy = points[..., 0] - cx, points[..., 1] - cy
+        q = ((qx * c + qy * s) / a, (-qx * s + qy * c) / b)
+        vx, vy = directions[..., 0], directions[..., 1]
+        w = ((vx * c + vy * s) / a, (-vx * s + vy * c) / b)
+        A = w[0] ** 2 + w[1] ** 2
+        B = 2 * (q[0] * w[0] + q[1] * w[1])
+        C = q[0] ** 2 + q[1] ** 2 - 1
+        total += value * np.sqrt(np.clip(B * B - 4 * A * C, 0, None)) / A
+    return total
+
+
+def closed_form_sinogram(geometry, angles: np.ndarray, ellipses=ELLIPSES, sub_rays: int = 1) -> np.ndarray:
+    """Closed-form line integrals averaged over ``sub_rays`` rays evenly across each bin: [V, n_bins]."""
+    offsets = ((np.arange(sub_rays) + 0.5) / sub_rays - 0.5) * geometry.bin_spacing
+    u = (detector_u(geometry)[:, None] + offsets[None, :]).reshape(-1)
+    chords = ellipse_chords(*reference_rays(geometry, angles, u), ellipses)
+    return chords.reshape(len(angles), geometry.n_bins, sub_rays).mean(axis=-1)
+
+
+def ellipse_image(grid: ImageGrid, ellipses=ELLIPSES, supersample: int = 8) -> np.ndarray:
+    """Area-averaged intensity of filled ellipses on ``grid``: [H, W] float64."""
+    x, y = grid.refined(supersample).xy()
+    fine = np.zeros_like(x)
+    for cx, cy, a, b, phi, value in ellipses:
+        along = (x - cx) * np.cos(phi) + (y - cy) * np.sin(phi)
+        across = -(x - cx) * np.sin(phi) + (y - cy) * np.cos(phi)
+        fine += value * ((along / a) ** 2 + (across / b) ** 2 <= 1)
+    n = grid.size
+    return fine.reshape(n, supersample, n, supersample).mean(axis=(1, 3))
+
+
+def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def ray_end_points(theta: np.ndarray, u: np.ndarray, source_distance: float | None = None,
+                   detector_distance: float | None = None, detector_shape: str = "flat",
+                   reach: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end points of every ray, ([V, B, 2], [V, B, 2]): parallel rays (no ``source_distance``)
+    run from u·e − reach·d to u·e + reach·d; fan rays from the source to the detector."""
+    d = np.stack((-np.sin(theta), np.cos(theta)), -1)[:, None, :]
+    e = np.stack((np.cos(theta), np.sin(theta)), -1)[:, None, :]
+    u = np.asarray(u, dtype=np.float64)[None, :, None]
+    if source_distance is None:
+        return u * e - reach * d, u * e + reach * d
+    source = -source_distance * d + 0 * u
+    if detector_shape == "flat":
+        return source, detector_distance * d + u * e
+    gamma = u / (source_distance + detector_distance)
+    return source, source + (source_distance + detector_distance) * (np.cos(gamma) * d + np.sin(gamma) * e)
+
+
+def siddon(image: np.ndarray, extent: float, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Line integrals of the piecewise-constant ``image`` [N, N] (side ``extent``) along the segments
+    start -> end ([..., 2] each): the sum over pixels of value × exact length of the segment inside it."""
+    n = image.shape[0]
+    shape = start.shape[:-1]
+    p1, p2 = start.reshape(-1, 2), end.reshape(-1, 2)
+    delta = p2 - p1
+    planes = np.linspace(-extent / 2, extent / 2, n + 1)
+    # Parameters α in [0, 1] where the segment crosses every vertical and horizontal pixel boundary.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crossings = [(planes[None, :] - p1[:, k : k + 1]) / delta[:, k : k + 1] for k in (0, 1)]
+    alphas = np.concatenate([np.zeros((len(p1), 1)), np.ones((len(p1), 1)), *crossings], axis=1)
+    alphas = np.sort(np.clip(np.nan_to_num(alphas, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0), axis=1)
+    lengths = np.diff(alphas, axis=1) * np.linalg.norm(delta, axis=1)[:, None]
+    middle = p1[:, None, :] + 0.5 * (alphas[:, 1:] + alphas[:, :-1])[..., None] * delta[:, None, :]
+    pixel = extent / n
+    col = np.floor((middle[..., 0] + extent / 2) / pixel).astype(int)
+    row = np.floor((extent / 2 - middle[..., 1]) / pixel).astype(int)
+    inside = (col >= 0) & (col < n) & (row >= 0) & (row < n) & (lengths > 0)
+    values = np.where(inside, image[row.clip(0, n - 1), col.clip(0, n - 1)], 0.0)
+    return (values * lengths).sum(axis=1).reshape(shape)
+
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def load_benchmark(name: str):
+    """A script of benchmarks/ as a module (the scripts are not part of the package; they import each other)."""
+    if str(BENCHMARKS) not in sys.path:
+        sys.path.insert(0, str(BENCHMARKS))
+    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module

@@ -21,10 +21,9 @@ Functions taking ``angles`` work on numpy arrays and on torch tensors alike (sam
 from __future__ import annotations
 
 import math
+import sys
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
-
-import sys
 from typing import TYPE_CHECKING, Union
 
 import numpy as np

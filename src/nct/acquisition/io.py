@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import tifffile
 
-from nct.errors import InputError
 from nct.acquisition.geometry import DETECTOR_SHAPES, Geometry, make_geometry
 from nct.acquisition.sinogram import Sinogram, Truth
+from nct.errors import InputError
 
 REQUIRED = ("angles", "times", "bin_spacing")  # and the data: ``sinogram``, or ``counts`` with ``flat``
 DATA_KEYS = ("sinogram", "counts")

@@ -56,8 +56,8 @@ def targets(out: Path, gif: bool, tiff: bool) -> list[Path]:
 
 def export(args: argparse.Namespace) -> list[Path]:
     """Check the arguments against the run, render and write; return the files written."""
-    from nct.run import export as files
     from nct.method.reload import even_times, load_run, render
+    from nct.run import export as files
 
     if args.frames is not None and args.frames < 1:
         raise InputError(f"--frames must be >= 1, got {args.frames}")

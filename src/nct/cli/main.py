@@ -17,10 +17,14 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.errors import CompactHydraException
 from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
+from omegaconf.errors import (
+    ConfigAttributeError,
+    ConfigKeyError,
+    OmegaConfBaseException,
+)
 
-from nct.run.config import describe, register_configs, unknown_key
 from nct.errors import InputError, MethodError
+from nct.run.config import describe, register_configs, unknown_key
 
 CONFIG_MODULE = "nct.conf"
 # Hydra plugins that optional extras install: the config Hydra misses without them -> the extra.

@@ -16,8 +16,8 @@ import torch
 from scipy.optimize import nnls
 
 from nct.acquisition.geometry import Geometry
-from nct.physics.projector import project
 from nct.method.segment import Judge
+from nct.physics.projector import project
 
 MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more ...
 MAX_PIXELS = 2**25  # ... and fewer where their mask images would hold more pixels than this (memory)

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nct.errors import NoObjectError
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.errors import NoObjectError
 
 PEAK_PERCENTILE = 99.9  # the intensity unit: this percentile of the FBP frames (robust to a few hot pixels)
 

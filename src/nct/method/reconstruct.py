@@ -18,21 +18,49 @@ import lightning as L
 import numpy as np
 import torch
 
-from nct.method.capacity import CapacityConf, Rung, band_kept, boundary_motion_px, climb, explain, object_models
-from nct.physics.data_term import view_noise
-from nct.method.fields import Field, ModelConf, build_field
-from nct.method.normalise import field_of_view
-from nct.method.judge import sinogram_judge
-from nct.physics.projector import fbp_frames
-from nct.method.render import intensity
 from nct.acquisition.scanner import ImageGrid
+from nct.acquisition.sinogram import Sinogram
+from nct.method.capacity import (
+    CapacityConf,
+    Rung,
+    band_kept,
+    boundary_motion_px,
+    climb,
+    explain,
+    object_models,
+)
+from nct.method.conf import (
+    HeldoutConf,
+    InitConf,
+    LossConf,
+    OptimConf,
+    RenderConf,
+    TrainerConf,
+)
+from nct.method.fields import Field, ModelConf, build_field
+from nct.method.judge import sinogram_judge
+from nct.method.normalise import field_of_view
+from nct.method.race import HeldoutHistory, lost, race
+from nct.method.render import intensity
 from nct.method.sdf import binarise, masks_to_sdf
 from nct.method.segment import Segmentation, segmentations
-from nct.acquisition.sinogram import Sinogram
-from nct.method.conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.method.race import HeldoutHistory, lost, race
-from nct.method.stages import (LOGGERS, FieldStage, HeldoutStop, IndexDataModule, InitFit, MinLossStop,
-                        RunClock, SinogramFit, Snapshot, SnapshotLog, Views, run_stage, snapshot)
+from nct.method.stages import (
+    LOGGERS,
+    FieldStage,
+    HeldoutStop,
+    IndexDataModule,
+    InitFit,
+    MinLossStop,
+    RunClock,
+    SinogramFit,
+    Snapshot,
+    SnapshotLog,
+    Views,
+    run_stage,
+    snapshot,
+)
+from nct.physics.data_term import view_noise
+from nct.physics.projector import fbp_frames
 
 log = logging.getLogger(__name__)
 

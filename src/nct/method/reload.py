@@ -18,15 +18,15 @@ import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from nct.method.capacity import band_kept
-from nct.errors import InputError
-from nct.method.fields import Field, build_field
 from nct.acquisition.io import load_sinogram
-from nct.method.reconstruct import field_frames, pass_prefix, rotations_since_start
-from nct.method.conf import ModelConf, OptimConf, RenderConf
-from nct.method.normalise import Units
-from nct.method.render import intensity
 from nct.acquisition.scanner import ImageGrid
+from nct.errors import InputError
+from nct.method.capacity import band_kept
+from nct.method.conf import ModelConf, OptimConf, RenderConf
+from nct.method.fields import Field, build_field
+from nct.method.normalise import Units
+from nct.method.reconstruct import field_frames, pass_prefix, rotations_since_start
+from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
 

@@ -25,15 +25,15 @@ from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
-from nct.physics.data_term import misfit
-from nct.errors import DivergenceError, InputError
-from nct.method.fields import Field, upsample
 from nct.acquisition.geometry import Geometry
+from nct.acquisition.scanner import ImageGrid
+from nct.errors import DivergenceError, InputError
 from nct.method.conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.method.fields import Field, upsample
 from nct.method.progress import StageBar, log_stage, show_bar
 from nct.method.race import HeldoutHistory
 from nct.method.render import intensity, project_frames
-from nct.acquisition.scanner import ImageGrid
+from nct.physics.data_term import misfit
 
 log = logging.getLogger(__name__)
 RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished

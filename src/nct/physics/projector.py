@@ -17,10 +17,10 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nct.acquisition.geometry import FanGeometry, Geometry, ParallelGeometry
-from nct.physics.conf import FILTERS
 from nct.acquisition.rebin import to_parallel
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.physics.conf import FILTERS
 
 # Backprojection works on chunks of views holding at most this many pixel samples (bounds memory).
 _CHUNK_SAMPLES = 2**22

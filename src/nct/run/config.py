@@ -17,14 +17,28 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
-from nct.method.capacity import CapacityConf
-from nct.errors import InputError, require
 from nct.acquisition.geometry import FanGeometry
-from nct.scenes.phantoms import CircleConf, ComposedConf, HeartConf, LettersConf, StaticConf
 from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.errors import InputError, require
+from nct.method.capacity import CapacityConf
+from nct.method.conf import (
+    LOGGERS,
+    HeldoutConf,
+    InitConf,
+    LossConf,
+    ModelConf,
+    OptimConf,
+    RenderConf,
+    TrainerConf,
+)
 from nct.physics.conf import FBPConf
-from nct.method.conf import (LOGGERS, HeldoutConf, InitConf, LossConf, ModelConf, OptimConf,
-                              RenderConf, TrainerConf)
+from nct.scenes.phantoms import (
+    CircleConf,
+    ComposedConf,
+    HeartConf,
+    LettersConf,
+    StaticConf,
+)
 
 
 @dataclass

@@ -19,18 +19,24 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig
 
+from nct.acquisition.io import load_sinogram, save_sinogram
+from nct.acquisition.scanner import ImageGrid
+from nct.acquisition.sinogram import Sinogram
+from nct.errors import DivergenceError, InputError, MethodError
+from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, validate
-from nct.errors import DivergenceError, InputError, MethodError
-from nct.acquisition.io import load_sinogram, save_sinogram
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
-from nct.scenes.phantoms import build_phantom
-from nct.physics.projector import fbp_frames
-from nct.acquisition.scanner import ImageGrid
-from nct.scenes.simulate import simulate
-from nct.acquisition.sinogram import Sinogram
 from nct.run.tables import write_csv
-from nct.run.tracking import run_hparams, write_capacity, write_frames, write_hparams, write_trace
+from nct.run.tracking import (
+    run_hparams,
+    write_capacity,
+    write_frames,
+    write_hparams,
+    write_trace,
+)
+from nct.scenes.phantoms import build_phantom
+from nct.scenes.simulate import simulate
 
 log = logging.getLogger(__name__)
 

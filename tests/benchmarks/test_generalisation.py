@@ -1,0 +1,205 @@
+"""The generalisation benchmark's own simulator (benchmarks/scenes.py, independent of nct): a
+deterministic sampler that covers its ranges, exact ellipse projections, Poisson noise, and files
+that nct's loader and FBP read right in unit field of view, cm and mm; its acceptance checks count
+a failed NeuralCT run as Dice 0.
+
+benchmarks/levels.py: the brightest-level ratio, and its report on a call's runs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nct.acquisition.io import load_sinogram
+from nct.acquisition.scanner import ImageGrid
+from nct.analysis.benchmarking import Job, Record
+from nct.method.segment import segmentations
+from nct.physics.projector import fbp_frames
+from nct.run.metrics import dice
+from tests.conftest import load_benchmark as load
+
+S = load("scenes")
+G = load("generalisation")
+
+
+def test_sampler_is_deterministic_per_seed_and_scene_index():
+    assert S.draw_scenes(3, 6) == S.draw_scenes(3, 6)
+    assert S.draw_scenes(3, 6)[:4] == S.draw_scenes(3, 4)
+    assert S.draw_scenes(3, 6) != S.draw_scenes(4, 6)
+
+
+def test_sampler_covers_its_ranges_and_keeps_every_layout_valid():
+    scenes = S.draw_scenes(0, 60)
+    assert {s.units for s in scenes} == {"unit", "cm", "mm"}
+    assert {len(s.objects) for s in scenes} == {1, 2, 3}
+    assert {s.layout for s in scenes} == {"single", "apart", "nested"}
+    assert {o.motion.kind for s in scenes for o in s.objects} == {"static", *S.MOTIONS}
+    assert {s.acquisition.direction for s in scenes} == {-1, 1}
+    assert {s.acquisition.rotations for s in scenes} == {1, 2, 3, 4}
+    assert any(s.noise_i0 is None for s in scenes) and any(s.noise_i0 is not None for s in scenes)
+    assert any(not s.moving for s in scenes) and any(s.max_deg_per_rotation >= 150 for s in scenes)
+    for s in scenes:
+        acq = s.acquisition
+        assert S.layout_ok(s)
+        assert 90 <= acq.views_per_rotation <= 720 and 0.2 <= acq.rotation_time <= 0.5
+        assert s.noise_i0 is None or 1e4 <= s.noise_i0 <= 1e6
+        assert 4.0 <= s.smallest_radius_pct() <= 30.0
+        assert all(0.2 <= o.intensity <= 2.0 for o in s.objects)
+        assert all(5 <= o.motion.deg_per_rotation <= 200 for o in s.objects if o.motion.kind != "static")
+        low, high = S.UNITS[s.units]
+        assert low <= s.extent <= high
+
+
+def static_scene(objects, direction: int = 1, units: str = "unit", extent: float = 1.0) -> "S.Scene":
+    acq = S.Acquisition(views_per_rotation=180, rotations=1, rotation_time=0.3, direction=direction,
+                        start_angle=1.0, time_offset=5.0, detector_width=1.1)
+    return S.Scene(0, units, extent, tuple(objects), "nested" if len(objects) > 1 else "single", acq, None)
+
+
+def test_chords_of_a_centred_disc_match_the_closed_form():
+    scene = static_scene([S.Ellipse((0.0, 0.0), 0.3, 0.3, 0.4, 1.0)])
+    angles = np.linspace(0, np.pi, 7)
+    s = np.tile(np.linspace(-0.4, 0.4, 81), (7, 1))
+    chords = S.chord_lengths(S.Pose.of(scene, 0, np.full(7, 5.0)), angles, s)
+    np.testing.assert_allclose(chords, 2 * np.sqrt(np.clip(0.09 - s**2, 0, None)), atol=1e-12)
+
+
+def test_projection_of_an_off_centre_ellipse_has_its_area_and_centroid_at_every_angle():
+    scene = static_scene([S.Ellipse((0.12, -0.07), 0.2, 0.08, 0.7, 1.5)])
+    values = S.line_integrals(scene, 128)
+    n_bins, spacing = S.detector(scene, 128)
+    s = (np.arange(n_bins) - (n_bins - 1) / 2) * spacing
+    angles = scene.acquisition.angles()
+    np.testing.assert_allclose(values.sum(axis=1) * spacing, 1.5 * np.pi * 0.2 * 0.08, rtol=1e-3)
+    centroid = (values * s).sum(axis=1) / values.sum(axis=1)
+    np.testing.assert_allclose(centroid, 0.12 * np.cos(angles) - 0.07 * np.sin(angles), atol=1e-4)
+
+
+def test_poisson_noise_is_unbiased_with_the_expected_spread():
+    p = np.ones(20000)  # unit FOV: k = 5, 1e4 * exp(-5) = 67 photons a ray
+    measured = S.add_noise(p, 1e4, 1.0, np.random.default_rng(0))
+    assert measured.mean() == pytest.approx(1.0, abs=0.005)
+    assert measured.std() == pytest.approx(1 / (5 * math.sqrt(1e4 * math.exp(-5))), rel=0.05)
+
+
+@pytest.mark.parametrize("units, extent", [("unit", 1.0), ("cm", 30.0), ("mm", 300.0)])
+@pytest.mark.parametrize("direction", [1, -1])
+def test_nct_fbp_reads_a_written_static_scene_right_in_every_unit(tmp_path, units, extent, direction):
+    objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((0.12, -0.12), 0.06, 0.05, 0.0, 0.5, parent=0)]
+    scene = static_scene(objects, direction, units, extent)
+    sino = load_sinogram(S.write_scene(scene, tmp_path / "scene.npz", 48, 2, 0))
+    truth = sino.truth
+    assert truth.extent == extent and sino.bin_spacing == pytest.approx(extent / 48)
+    assert truth.level == pytest.approx(0.25)
+    assert sino.values.max() == pytest.approx(extent * S.line_integrals(scene, 48).max(), rel=1e-6)
+    frames = fbp_frames(sino, ImageGrid(48, truth.extent), truth.times)
+    assert dice(frames >= truth.level, truth.frames >= truth.level).min() > 0.95
+    assert np.abs(frames - truth.frames).mean() < 0.02
+
+
+def record(method: str, status: str, dice_value: float) -> Record:
+    job = Job({"scene": "scene000"}, method, 0, (), Path("/nonexistent"))
+    return Record(job=job, status=status, dice=dice_value, mse=0.01)
+
+
+def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
+    moving = next(s for s in S.draw_scenes(0, 12) if s.moving)
+    ok = G.Outcome(moving, record("nct", "ok", 0.95), record("fbp", "ok", 0.90))
+    trailing = G.Outcome(moving, record("nct", "ok", 0.885), record("fbp", "ok", 0.90))
+    crashed = G.Outcome(moving, record("nct", "failed", math.nan), record("fbp", "ok", 0.90))
+    checks = G.acceptance([ok, trailing, crashed])
+    assert checks.crashes == [crashed] and checks.below_fbp == [trailing, crashed]
+    assert (checks.target_good, checks.target_scenes) == (1, 3)
+    assert [line.split(":")[1].split(",")[0].strip() for line in checks.lines()] == ["FAIL", "FAIL", "FAIL"]
+    rows = {(r["category"], r["value"]): r for r in G.category_rows([ok, trailing, crashed])}
+    assert rows["all", "all"]["nct_dice"] == pytest.approx(0.885) and rows["all", "all"]["nct_failed"] == 1
+
+
+def test_acceptance_without_target_scenes_says_so_rather_than_fail():
+    """A run of static scenes alone (e.g. --only scene006) has no scene for check (c)."""
+    static = next(s for s in S.draw_scenes(0, 12) if not s.moving)
+    checks = G.acceptance([G.Outcome(static, record("nct", "ok", 0.99), record("fbp", "ok", 0.99))])
+    assert checks.target_scenes == 0
+    assert checks.lines()[2].endswith("no such scene") and "PASS" in checks.lines()[1]
+
+
+def test_own_level_of_a_nested_object_adds_its_containers():
+    """Issue 9 item 5's threshold: a vessel (1.0) in a body (0.5) in a shell (0.2) is scored at 0.2 + 0.5 + 0.5."""
+    scene = next(s for s in S.draw_scenes(0, 60) if s.layout == "nested")
+    body = S.Ellipse((0.0, 0.0), 0.3, 0.3, 0.0, 0.2)
+    nested = (body, S.Ellipse((0.0, 0.0), 0.2, 0.2, 0.0, 0.5, parent=0), S.Ellipse((0.0, 0.0), 0.05, 0.05, 0.0, 1.0,
+                                                                                   parent=1))
+    levels = S.Scene(scene.index, scene.units, scene.extent, nested, "nested", scene.acquisition, None).own_levels()
+    assert levels == pytest.approx({1: 0.2 + 0.25, 2: 0.2 + 0.5 + 0.5})
+    single = S.Scene(scene.index, scene.units, scene.extent, (body,), "single", scene.acquisition, None)
+    assert single.own_levels() == {}
+
+
+def test_init_candidates_sees_what_the_run_segments(tmp_path):
+    """benchmarks/init_candidates.py stops the run where it segments: the judged candidate the run
+    kept (metrics.json -> init -> start) has the a(k) it records as its initial levels."""
+    from nct.run.pipeline import run_job
+    from tests.conftest import compose_config
+
+    objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]
+    path = S.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
+    overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
+                 "export.tiff=false", "export.png=false"]
+    frames, k, rng, kappa, share, route, judge, starts = load("init_candidates").segmentation_inputs(path, 2, overrides)
+    assert frames.ndim == 3 and k == 2 and judge is not None and starts == 2
+    ranked = segmentations(frames, k, rng, kappa, share, route, judge)
+    run_job(compose_config(["data=file", f"data.path={path}", "data.n_objects=2", *overrides]), tmp_path / "run")
+    init = json.loads((tmp_path / "run" / "metrics.json").read_text())["init"]
+    assert init["starts_tried"] == 2 and init["start"] in (0, 1)
+    kept = ranked[init["start"]]
+    np.testing.assert_allclose(np.asarray(kept.intensities) * init["intensity_unit"], init["levels"], rtol=1e-6)
+    assert sorted(init["levels"]) == pytest.approx([0.6, 1.5], rel=0.1)
+
+
+def _disc(radius: float, level: float, size: int = 32) -> np.ndarray:
+    y, x = np.mgrid[:size, :size] - (size - 1) / 2
+    return np.where(np.hypot(x, y) <= radius, level, 0.0)[None].astype(np.float32)
+
+
+def test_brightest_ratio_sees_a_disc_drawn_wider_and_fainter():
+    levels = load("levels")
+    truth = _disc(3, 2.0)
+    assert levels.brightest_ratio(truth, truth) == pytest.approx(1.0)
+    # Twice as wide at half the level: about the same mass, but the true disc's pixels read 1.0.
+    assert levels.brightest_ratio(truth, _disc(6, 1.0)) == pytest.approx(0.5)
+    assert levels.brightest_ratio(truth, 0.9 * truth) == pytest.approx(0.9)
+    with pytest.raises(ValueError, match="differ in shape"):
+        levels.brightest_ratio(truth, truth[:, :-1])
+
+
+def _run(call, scene: str, truth: np.ndarray, nct: np.ndarray, fbp: np.ndarray) -> None:
+    folder = call / "runs" / scene / "nct"
+    folder.mkdir(parents=True)
+    np.savez(folder / "reconstruction.npz", nct=nct, fbp=fbp)
+    np.savez(folder / "sinogram.npz", truth=truth)
+
+
+def test_levels_report_lists_the_scenes_where_nct_is_fainter_than_fbp(tmp_path, capsys):
+    levels = load("levels")
+    call = tmp_path / "call"
+    truth = _disc(3, 2.0)
+    _run(call, "scene000", truth, _disc(6, 1.0), 0.95 * truth)   # NCT 0.5, FBP 0.95: listed
+    _run(call, "scene001", truth, truth, 0.8 * truth)            # NCT 1.0, FBP 0.8: not listed
+    (call / "scenes.csv").write_text("scene,layout,radii_pct,nct_status\nscene000,nested,30x20 5x5,ok\n"
+                                     "scene001,apart,10x10 4x4,ok\nscene002,single,5x5,failed\n")
+    assert levels.main(["--call", str(call), "--out", str(tmp_path / "levels.md")]) == 0
+    out = capsys.readouterr().out
+    assert "2 scenes" in out and "median NCT 0.750, FBP 0.875" in out and "below 0.9: NCT 1, FBP 1" in out
+    assert "| scene000 | nested | 30x20 5x5 | 0.500 | 0.950 |" in out and "| scene001 |" not in out
+    assert (tmp_path / "levels.md").read_text() == out.rstrip("\n") + "\n"
+
+
+def test_levels_report_says_when_there_is_nothing_to_read(tmp_path, capsys):
+    levels = load("levels")
+    assert levels.main(["--call", str(tmp_path)]) == 1
+    assert "levels: error: no scenes.csv" in capsys.readouterr().err

@@ -1,0 +1,157 @@
+"""Neural SDF fields: shapes, the static family, the Fourier basis in time, config validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from nct.method.fields import GridField, ModelConf, build_field, upsample
+
+XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
+SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
+
+
+def field(seed: int = 0, **kw):
+    return build_field(ModelConf(**(SMALL | kw)), n_objects=2, generator=torch.Generator().manual_seed(seed))
+
+
+def test_shapes():
+    f = field(n_terms=5)
+    c = f.coefficients(XY)
+    assert c.static.shape == (2, 50) and c.temporal.shape == (10, 2, 50)
+    t = torch.tensor([0.0, 0.3, 0.7])
+    assert f.sdf(c, t).shape == (3, 2, 50) and f.sdf_rate(c, t).shape == (3, 2, 50)
+
+
+def test_an_object_made_static_keeps_its_shape_at_that_time():
+    f = field(n_terms=5)
+    c = f.coefficients(XY)
+    t = torch.tensor([0.0, 0.3, 0.9])
+    before = f.sdf(c, t)
+    f.set_static(torch.tensor([True, False]), at=0.3)
+    after = f.sdf(c, t)
+    for i in range(3):
+        torch.testing.assert_close(after[i, 0], before[1, 0])  # object 0: its g at t = 0.3, at every time
+    torch.testing.assert_close(after[:, 1], before[:, 1])
+    assert f.sdf_rate(c, t)[:, 0].abs().max() == 0 and f.sdf_rate(c, t)[:, 1].abs().max() > 0
+    assert f.describe()["static_objects"] == [0] and not f.describe()["static"]
+
+
+def test_sdf_is_static_plus_fourier_series():
+    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t)."""
+    f = field(n_terms=4)
+    c = f.coefficients(XY)
+    t = 0.37
+    by_hand = c.static.clone()
+    for i, w in enumerate(f.omega):
+        by_hand += (c.temporal[i] * math.sin(2 * math.pi * w * t) + c.temporal[4 + i] * math.cos(2 * math.pi * w * t)) / 4
+    torch.testing.assert_close(f.sdf(c, torch.tensor([t]))[0], by_hand, atol=1e-5, rtol=1e-5)
+
+
+def test_time_derivative_matches_finite_difference():
+    f = field(n_terms=6, f_max=0.8)
+    c = f.coefficients(XY)
+    t, h = torch.tensor([0.4], dtype=torch.float64), 1e-4
+    f = f.double()
+    c = f.coefficients(XY.double())
+    numeric = (f.sdf(c, t + h) - f.sdf(c, t - h)) / (2 * h)
+    torch.testing.assert_close(f.sdf_rate(c, t), numeric, atol=1e-6, rtol=1e-5)
+
+
+def test_static_model_has_no_temporal_terms():
+    f = field(n_terms=0)
+    c = f.coefficients(XY)
+    assert f.temporal is None and c.temporal is None and f.describe()["static"]
+    assert not any("temporal" in name for name, _ in f.named_parameters())
+    g = f.sdf(c, torch.tensor([0.0, 5.0]))
+    torch.testing.assert_close(g[0], g[1])
+    assert f.sdf_rate(c, torch.tensor([1.0])).abs().max() == 0
+
+
+def test_frequencies_follow_seed_and_f_max():
+    a, b, other = field(0, n_terms=4000, f_max=0.3), field(0, n_terms=4000, f_max=0.3), field(1, n_terms=4000, f_max=0.3)
+    torch.testing.assert_close(a.omega, b.omega)
+    assert not torch.equal(a.omega, other.omega)
+    assert a.omega.std().item() == pytest.approx(0.3, rel=0.05)
+    assert a.omega.mean().abs().item() < 0.02
+
+
+def test_describe_counts_parameters():
+    """n_params counts the shape g; a(k), one per object, is the model's too but not counted."""
+    f = field(n_terms=3)
+    assert f.describe()["n_params"] == sum(p.numel() for p in f.parameters()) - f.n_objects
+
+
+def test_field_owns_its_intensities():
+    f = field(n_terms=3)
+    f.set_intensities(torch.tensor([0.25] * f.n_objects))
+    torch.testing.assert_close(f.intensities, torch.full((f.n_objects,), 0.25))
+    assert "log_intensities" in f.state_dict()
+    assert all(p is not f.log_intensities for p in f.shape_parameters())
+
+
+@pytest.mark.parametrize("key, value", [("family", "mlp"), ("width", 0), ("n_terms", -1), ("f_max", -0.1),
+                                        ("omega0", 0.0)])
+def test_bad_config_names_the_key(key, value):
+    with pytest.raises(ValueError, match=f"model.{key}"):
+        ModelConf(**{key: value})
+
+
+GRID = dict(family="grid", resolution=16, temporal_resolution=8, levels=2)
+
+
+def randomised(f):
+    """The field with every parameter drawn at random (grids start at zero)."""
+    with torch.no_grad():
+        for p in f.parameters():
+            p.normal_(generator=torch.Generator().manual_seed(p.numel()))
+    return f
+
+
+@pytest.mark.parametrize("family", ["siren", "grid"])
+def test_lattice_evaluation_matches_points(family, device):
+    """``on_lattice`` (separable matrix products for grids) gives the point-wise values at pixel centres."""
+    from nct.acquisition.scanner import ImageGrid
+    from nct.method.fields import lattice_points
+
+    x, y = ImageGrid(24, 3.0).xy()
+    centres = torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / 1.5).float()
+    torch.testing.assert_close(lattice_points(24), centres, atol=1e-6, rtol=0)
+    f = (randomised(field(n_terms=3, **GRID)) if family == "grid" else field(n_terms=3)).to(device)
+    a, b = f.coefficients(centres.to(device)), f.on_lattice(24)
+    assert b.static.device.type == device.type
+    torch.testing.assert_close(b.static, a.static, atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(b.temporal, a.temporal, atol=1e-5, rtol=1e-5)
+
+
+def test_grid_family_interpolates_its_nodes_bilinearly():
+    """At a node the grid field is the sum of its levels there; halfway between it is the mean."""
+    f = randomised(field(n_terms=0, **GRID))
+    fine, coarse = (g[0, 0] for g in f.static.grids)  # 16 and 8 cells per side, object 0
+    node = torch.tensor([[-1.0, -1.0], [1.0, 1.0]])
+    torch.testing.assert_close(f.coefficients(node).static[0], torch.stack([fine[0, 0] + coarse[0, 0],
+                                                                           fine[-1, -1] + coarse[-1, -1]]))
+    half = torch.tensor([[-1 + 1 / 15, -1.0]])  # halfway between fine nodes 0 and 1 along x
+    expected = (fine[0, 0] + fine[0, 1]) / 2 + coarse[0, 0] + (coarse[0, 1] - coarse[0, 0]) * (7 / 15) / 2
+    torch.testing.assert_close(f.coefficients(half).static[0, 0], expected, atol=1e-6, rtol=1e-6)
+
+
+def test_grid_family_sizes_and_validation():
+    f = field(n_terms=4, **GRID)
+    assert f.describe()["n_params"] == 2 * (16**2 + 8**2) + 2 * 4 * 2 * (8**2 + 4**2)
+    assert isinstance(f, GridField) and f.describe()["static"] is False
+    with pytest.raises(ValueError, match="model.resolution must be >= 2\\*\\*model.levels = 8"):
+        ModelConf(family="grid", resolution=4, levels=3)
+    with pytest.raises(ValueError, match="model.family must be one of"):
+        ModelConf(family="hashgrid")
+
+
+@pytest.mark.parametrize("n, size", [(16, 32), (5, 13), (64, 128)])
+def test_upsample_is_bilinear_between_pixel_centres(n, size, device):
+    """upsample equals torch's bilinear interpolation (align_corners=False) of the same images."""
+    images = torch.randn(3, 2, n, n, dtype=torch.float64).to(device)
+    expected = torch.nn.functional.interpolate(images, size=(size, size), mode="bilinear", align_corners=False)
+    torch.testing.assert_close(upsample(images, size), expected, atol=2e-6, rtol=0)

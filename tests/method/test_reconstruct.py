@@ -1,0 +1,250 @@
+"""NeuralCT end to end on a tiny moving circle: runs, is seeded, fits, never reads the truth.
+
+NeuralCT along every geometry's rays: the renderer follows the geometry; a tiny fan-beam fit beats FBP.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch
+
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.acquisition.sinogram import Sinogram, Truth
+from nct.errors import DivergenceError
+from nct.method.conf import (
+    HeldoutConf,
+    InitConf,
+    LossConf,
+    OptimConf,
+    RenderConf,
+    TrainerConf,
+)
+from nct.method.fields import ModelConf
+from nct.method.reconstruct import (
+    heldout_standard_error,
+    reconstruct,
+    rotations_since_start,
+    split_views,
+)
+from nct.method.render import project_frames
+from nct.method.stages import DivergenceCheck
+from nct.physics.projector import fbp_frames
+from nct.run.metrics import frame_metrics
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.scenes.simulate import add_poisson_noise, simulate
+from tests.conftest import (
+    GEOMETRIES,
+    INIT,
+    MODEL,
+    OPTIM,
+    TRAINER,
+    closed_form_sinogram,
+    moving_disc,
+)
+
+GRID = ImageGrid(32)
+
+
+@pytest.fixture(scope="module")
+def acquisition():
+    return moving_disc(GRID)
+
+
+def run(sino, times, optim=OPTIM, seed=0, loss=LossConf(), **kw):
+    return reconstruct(sino, GRID, times, MODEL, loss, TRAINER, seed, log_dir=None, logger="none",
+                       optim=optim, init=INIT, **kw)
+
+
+def test_runs_fits_and_is_seeded(acquisition):
+    sino, times = acquisition
+    result = run(sino, times)
+    assert result.frames.shape == (6, 32, 32) and result.frames.dtype == np.float32
+    assert result.sdf.shape == (6, 1, 32, 32)
+    assert result.intensities[0] == pytest.approx(1.0, abs=0.25)  # estimated from the FBP frames
+    assert set(result.stages) == {"init", "fit"} and result.stages["fit"]["steps"] == 40
+    assert result.capacity["n_params"] > 0 and not result.capacity["static"]
+    np.testing.assert_array_equal(run(sino, times).frames, result.frames)
+    assert not np.array_equal(run(sino, times, seed=1).frames, result.frames)
+    # Fitting the sinogram lowers the misfit on views it never saw.
+    unfitted = run(sino, times, replace(OPTIM, fit_steps=0))
+    assert result.heldout_loss < 0.8 * unfitted.heldout_loss
+    assert 0 < result.heldout_se < 0.5 * result.heldout_loss
+
+
+def test_fit_never_reads_the_truth(acquisition):
+    sino, times = acquisition
+    fake = Truth(frames=np.random.default_rng(5).random(sino.truth.frames.shape).astype(np.float32),
+                 times=sino.truth.times, extent=9.0, level=0.1)
+    swapped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=fake)
+    stripped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=None)
+    short = replace(OPTIM, init_steps=10, fit_steps=10)
+    base = run(sino, times, short).frames
+    np.testing.assert_array_equal(run(swapped, times, short).frames, base)
+    np.testing.assert_array_equal(run(stripped, times, short).frames, base)
+
+
+def test_refinement_adds_the_second_pass(acquisition):
+    sino, times = acquisition
+    optim = replace(OPTIM, init_steps=5, fit_steps=5, refine=True, refine_init_steps=5, refine_fit_steps=5)
+    assert list(run(sino, times, optim).stages) == ["init", "fit", "refine_init", "refine_fit"]
+
+
+def test_huge_learning_rate_is_reported_as_divergence(acquisition):
+    sino, times = acquisition
+    with pytest.raises(DivergenceError, match="stage 'init' diverged at step"):
+        run(sino, times, replace(OPTIM, lr=1e3, warmup_steps=0))
+
+
+def test_divergence_check_catches_nan():
+    check = DivergenceCheck("fit", 10.0)
+    trainer = SimpleNamespace(global_step=3, optimizers=[SimpleNamespace(param_groups=[{"lr": 1e-3}])],
+                              log_every_n_steps=1, max_steps=10)
+    for step, loss in enumerate([0.5, 0.2, 4.9, 0.01]):  # limit: 10 x the first loss
+        check.on_train_batch_end(trainer, None, {"loss": torch.tensor(loss)}, None, step)
+    with pytest.raises(DivergenceError, match="loss nan"):
+        check.on_train_batch_end(trainer, None, {"loss": torch.tensor(float("nan"))}, None, 4)
+    with pytest.raises(DivergenceError, match="first step 0.5, limit 10x"):
+        check.on_train_batch_end(trainer, None, {"loss": torch.tensor(5.1)}, None, 5)
+
+
+def test_divergence_is_checked_on_logging_steps_and_the_last():
+    check = DivergenceCheck("fit", 10.0)
+    trainer = SimpleNamespace(global_step=0, optimizers=[SimpleNamespace(param_groups=[{"lr": 1e-3}])],
+                              log_every_n_steps=5, max_steps=12)
+    check.on_train_batch_end(trainer, None, {"loss": torch.tensor(1.0)}, None, 0)
+    check.on_train_batch_end(trainer, None, {"loss": torch.tensor(float("nan"))}, None, 2)  # not read
+    with pytest.raises(DivergenceError, match="loss nan"):
+        check.on_train_batch_end(trainer, None, {"loss": torch.tensor(float("nan"))}, None, 4)  # step 5
+    with pytest.raises(DivergenceError, match="loss 20"):
+        check.on_train_batch_end(trainer, None, {"loss": torch.tensor(20.0)}, None, 11)  # the last step
+
+
+def test_time_is_measured_in_rotations():
+    angles = 0.3 + np.linspace(0, 4 * np.pi, 9)  # two rotations over 1 s, starting at t = 2 s
+    sino = Sinogram(np.zeros((9, 4), np.float32), angles, 2.0 + np.linspace(0, 1, 9), 0.25)
+    clock = rotations_since_start(sino)
+    torch.testing.assert_close(clock(np.array([2.0, 2.5, 3.0])), torch.tensor([0.0, 1.0, 2.0]))
+    with pytest.raises(ValueError, match="positive time"):
+        rotations_since_start(Sinogram(np.zeros((2, 4), np.float32), np.zeros(2), np.zeros(2), 0.25))
+
+
+def test_every_tenth_view_is_held_out():
+    fit, held = split_views(30, 10)
+    np.testing.assert_array_equal(held, [5, 15, 25])
+    assert len(fit) == 27 and not set(fit) & set(held)
+    assert len(split_views(30, 0)[1]) == 0
+    fit, held = split_views(40, 4, run=3)  # blocks of time: every 4th run of 3 consecutive views
+    np.testing.assert_array_equal(held, [6, 7, 8, 18, 19, 20, 30, 31, 32])
+    assert len(fit) == 31 and not set(fit) & set(held)
+
+
+def test_bad_arguments(acquisition):
+    sino, times = acquisition
+    with pytest.raises(ValueError, match="n_objects"):
+        run(sino, times, n_objects=0)
+    with pytest.raises(ValueError, match="logger"):
+        reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, None, logger="wandb")
+    with pytest.raises(ValueError, match="render.band_start_px must be >= render.band_px"):
+        RenderConf(band_px=2.0, band_start_px=1.0)
+    with pytest.raises(ValueError, match="loss.tv_time"):
+        LossConf(tv_time=-1.0)
+
+
+def test_heldout_views_are_scored_as_validation(acquisition):
+    """val/heldout_loss is Lightning's validation of the held-out views: after the last step it
+    equals the held-out score the result reports."""
+    sino, times = acquisition
+    result = run(sino, times, heldout=HeldoutConf(every=10, check_every=OPTIM.fit_steps // 2))
+    assert result.stages["fit"]["losses"]["val/heldout_loss"] == pytest.approx(result.heldout_loss, rel=1e-5)
+    off = run(sino, times, heldout=HeldoutConf(every=10, check_every=0))
+    assert "val/heldout_loss" not in off.stages["fit"]["losses"]
+    np.testing.assert_array_equal(off.frames, result.frames)  # scoring never changes the fit
+
+
+def test_coarse_lattice_fits_as_well(acquisition):
+    """The first pass on a lattice half the image's side explains the held-out views about as well,
+    summed over seeds 0-2 (one seed's ratio ranges 1.0-1.5 with the seed and the thread count)."""
+    sino, times = acquisition
+    full = [run(sino, times, seed=s) for s in range(3)]
+    coarse = [run(sino, times, replace(OPTIM, coarse_size=16), seed=s) for s in range(3)]
+    assert not np.array_equal(coarse[0].frames, full[0].frames)
+    assert sum(r.heldout_loss for r in coarse) < 1.3 * sum(r.heldout_loss for r in full)
+
+
+def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisition):
+    sino, times = acquisition
+    poisson = LossConf(data_term="poisson")
+    np.testing.assert_array_equal(run(sino, times, loss=poisson).frames, run(sino, times).frames)
+    noisy = replace(sino, values=add_poisson_noise(sino.values, 1e3, 1.0, np.random.default_rng(0)), i0=1e3)
+    l1, weighted = run(noisy, times), run(noisy, times, loss=poisson)
+    assert not np.array_equal(weighted.frames, l1.frames)
+    assert weighted.heldout_loss == pytest.approx(l1.heldout_loss, rel=0.1)
+
+
+def test_a_fit_that_loses_its_way_is_rerun_at_half_the_rates(acquisition):
+    """An intensity rate of 6 drives a(k) to nothing (misfit 1 from 0.15); each retry halves the rates,
+    the attempt with the lowest misfit on the held-out views is kept and its field returned."""
+    sino, times = acquisition
+    wild = replace(OPTIM, intensity_lr=6.0)
+    lost = run(sino, times, replace(wild, retries=0))
+    assert [k for k in lost.stages if k.startswith("fit")] == ["fit"]
+    assert lost.stages["fit"]["misfit_end"] > 3 * lost.stages["fit"]["misfit_start"]
+    result = run(sino, times, replace(wild, retries=2))
+    fits = {k: v for k, v in result.stages.items() if k.startswith("fit")}
+    assert list(fits) == ["fit", "fit_retry1", "fit_retry2"]
+    assert [k for k, v in fits.items() if v["kept"]] == ["fit_retry2"]
+    assert fits["fit_retry2"]["misfit_end"] < 0.7 * fits["fit"]["misfit_start"]
+    assert result.heldout_loss == pytest.approx(fits["fit_retry2"]["misfit_end"], rel=1e-5)
+    assert result.heldout_loss < 0.2 * lost.heldout_loss
+
+
+def test_heldout_standard_error_comes_from_blocks_of_neighbouring_views():
+    rng = np.random.default_rng(0)
+    independent = rng.normal(1.0, 0.1, 1000)
+    assert heldout_standard_error(independent) == pytest.approx(0.1 / np.sqrt(1000), rel=0.35)
+    drifting = np.linspace(0.9, 1.1, 1000)  # misfits that follow the motion: neighbours alike
+    assert heldout_standard_error(drifting) > 5 * drifting.std() / np.sqrt(1000)
+    assert np.isnan(heldout_standard_error(np.ones(1)))
+
+
+ANGLES = np.array([0.0, 0.7, 1.9, 3.0])
+DISC = (0.08, -0.05, 0.2, 0.2, 0.0, 1.0)
+
+
+@pytest.mark.parametrize("geometry", GEOMETRIES.values(), ids=GEOMETRIES.keys())
+@pytest.mark.parametrize("k_samp", [1, 2])
+def test_rendered_disc_matches_closed_form_chords(geometry, k_samp):
+    grid = ImageGrid(64)
+    x, y = grid.xy()
+    sdf = torch.from_numpy(0.2 - np.hypot(x - DISC[0], y - DISC[1])).float()
+    sdf = sdf[None, None].expand(len(ANGLES), 1, -1, -1)
+    sino = project_frames(sdf, torch.ones(1), torch.tensor(ANGLES), geometry, 1.0, grid.pixel_size, 50.0, k_samp)
+    expected = closed_form_sinogram(geometry, ANGLES, [DISC], sub_rays=k_samp)
+    # As test_render.py's parallel-beam check: mean error relative to the mean (edge rays sample the ramp).
+    # Measured: 0.86-1.04 % with one ray a bin, 0.47-0.54 % with two.
+    assert np.abs(sino.numpy() - expected).mean() / expected.mean() < {1: 0.012, 2: 0.007}[k_samp]
+
+
+@pytest.mark.parametrize("shape, offset", [("flat", 0.0), ("curved", 0.0), ("flat", 0.132)],
+                         ids=["flat", "curved", "flat-offset"])
+def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_margin(shape, offset):
+    """Issue 11's bar at a small size: the circle experiment (100 deg/rotation) in fan beam, NCT
+    Dice >= 0.93 and >= fan-beam FBP + 0.08. Measured (64^2, 180 views, 300 steps): NCT
+    0.946-0.948, FBP 0.831-0.835; at full size (benchmarks/results/fan) 0.964-0.966 vs 0.823-0.826."""
+    scanner = Scanner(180, 1.0, 0.25, n_bins=64, bin_spacing=2.2 / 64, source_distance=2.0, detector_distance=2.0,
+                      detector_shape=shape, detector_offset=offset)
+    phantom = build_phantom(CircleConf(radius=0.15, orbit_radius=0.2, displacement_deg=100.0), scanner.rotation_time)
+    times, grid = scanner.frame_times(12), ImageGrid(64)
+    sino = simulate(phantom, scanner, grid, times, None, np.random.default_rng(0))
+    model = ModelConf(width=32, depth=2, temporal_width=32, temporal_depth=2, n_terms=16)
+    optim = OptimConf(init_steps=100, fit_steps=300, refine=False, batch_views=10, warmup_steps=10, lr_decay_every=30)
+    result = reconstruct(sino, grid, times, model, LossConf(), TrainerConf(accelerator="cpu", progress_bar=False), 0,
+                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24))
+    level = sino.truth.level
+    nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
+    fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))
+    assert nct >= 0.93 and nct >= fbp + 0.08
