@@ -1,0 +1,148 @@
+"""One tournament for every choice the method makes from data (motion rung, start, restart).
+
+Candidates are fitted one after another, simplest first, and scored on the held-out views, which
+no fit sees. Successive halving, run sequentially (as Optuna's pruner does): the milestones of the
+schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops when its
+held-out misfit is above (1 + ``tolerance``) x the best any candidate had there, so a fit that
+cannot win costs only the steps to its first losing milestone. Parsimony then picks the winner: the
+simplest finished candidate whose final misfit is within (1 + ``tolerance``) of the best. The table
+of every candidate (``Verdict.rows``) is written as selection.csv. No truth is read.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from nct.errors import require
+
+HeldoutHistory = list[tuple[int, float]]  # (step, held-out misfit) at each held-out check of a fit
+
+
+@dataclass
+class SelectionConf:
+    """The tournament's settings (config group ``select``).
+
+    rungs: the motion models tried, simplest first (static, rigid, affine, free), or one of them.
+    first_budget: share of a fit's steps at the schedule's first milestone (then twice, four times ...).
+    tolerance: relative held-out misfit within which a simpler candidate beats a better one.
+    """
+
+    rungs: list[str] = field(default_factory=lambda: ["free"])
+    first_budget: float = 0.25
+    tolerance: float = 0.05
+
+    def __post_init__(self) -> None:
+        require(len(self.rungs) >= 1, "select.rungs", "a non-empty list", self.rungs)
+        require(0 < self.first_budget <= 1, "select.first_budget", "in (0, 1]", self.first_budget)
+        require(0 <= self.tolerance < 1, "select.tolerance", "in [0, 1)", self.tolerance)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One choice in the tournament: a unique ``name`` (its random streams derive from it), its motion
+    ``rung``, its ``simplicity`` (lower is simpler: the ladder's order, then the judge's rank of its start)
+    and the index of the ``start`` it begins from."""
+
+    name: str
+    rung: str
+    simplicity: tuple[int, ...]
+    start: int = 0
+
+
+@dataclass
+class Entry:
+    """A fitted candidate: the steps it ran, its held-out ``history`` and its final ``misfit``
+    and ``pruned``: why it stopped at a milestone (None: it finished)."""
+
+    candidate: Candidate
+    steps: int
+    history: HeldoutHistory
+    misfit: float
+    pruned: str | None = None
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The winner and one row per candidate (candidate, rung, steps, misfit, verdict) for selection.csv."""
+
+    winner: Candidate
+    rows: list[dict]
+    reason: str
+
+
+class Tournament:
+    """Sequential successive halving over fits of ``steps`` steps whose held-out views are scored
+    every ``check_every`` steps (the milestones fall on those checks; 0: none), then parsimony."""
+
+    def __init__(self, steps: int, check_every: int, conf: SelectionConf) -> None:
+        self.steps, self.conf = steps, conf
+        self.entries: list[Entry] = []
+        self.milestones: list[int] = []
+        budget = conf.first_budget * steps
+        while check_every > 0 and budget < steps:
+            step = math.ceil(budget / check_every) * check_every
+            if step < steps and step not in self.milestones:
+                self.milestones.append(step)
+            budget *= 2
+
+    def _at(self, history: HeldoutHistory, step: int) -> float | None:
+        """The misfit of the last check at or before ``step`` (None: no check yet)."""
+        due = [loss for at, loss in history if at <= step]
+        return due[-1] if due else None
+
+    def best_at(self, step: int) -> float:
+        """The best misfit any recorded candidate had at ``step`` (inf: none reached it)."""
+        seen = [self._at(e.history, step) for e in self.entries if e.steps >= step]
+        return min((s for s in seen if s is not None), default=math.inf)
+
+    def verdict_at(self, history: HeldoutHistory) -> str | None:
+        """Why a fit with this ``history`` stops now (None: it goes on): its latest check is a
+        milestone where its misfit is above (1 + tolerance) x the best recorded there."""
+        if not history:
+            return None
+        step, loss = history[-1]
+        if step not in self.milestones:
+            return None
+        best = self.best_at(step)
+        if loss > (1 + self.conf.tolerance) * best:
+            return f"stopped at step {step}: held-out misfit {loss:.4g} above {1 + self.conf.tolerance:g} x the best {best:.4g}"
+        return None
+
+    def stops(self) -> Callable[[HeldoutHistory], bool]:
+        """The rule for the next candidate's fit (a HeldoutStop callback's): stop where ``verdict_at`` says."""
+        return lambda history: self.verdict_at(history) is not None
+
+    def record(self, candidate: Candidate, history: HeldoutHistory, steps: int, misfit: float) -> Entry:
+        """Enter a fitted candidate; one that stopped before ``steps`` is pruned (its misfit kept for the table)."""
+        pruned = self.verdict_at(history) if steps < self.steps else None
+        entry = Entry(candidate, steps, list(history), misfit, pruned)
+        self.entries.append(entry)
+        return entry
+
+    def verdict(self) -> Verdict:
+        """Parsimony among the finished candidates: the simplest within (1 + tolerance) of the best."""
+        finished = [e for e in self.entries if e.pruned is None and math.isfinite(e.misfit)]
+        if not finished:
+            raise ValueError("no candidate finished its fit")
+        best = min(e.misfit for e in finished)
+        bound = (1 + self.conf.tolerance) * best
+        winner = min((e for e in finished if e.misfit <= bound), key=lambda e: e.candidate.simplicity)
+        rows = []
+        for e in self.entries:
+            if e is winner:
+                why = "winner"
+            elif e.pruned:
+                why = e.pruned
+            elif e.misfit <= bound:
+                why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
+            else:
+                why = f"held-out misfit {e.misfit / best - 1:+.1%} against the best"
+            rows.append({"candidate": e.candidate.name, "rung": e.candidate.rung, "steps": e.steps,
+                         "heldout_misfit": e.misfit, "verdict": why})
+        best_entry = min(finished, key=lambda e: e.misfit)
+        reason = (f"{winner.candidate.name}: the best held-out misfit ({best:.4g})" if winner is best_entry else
+                  f"{winner.candidate.name}: the simplest within {self.conf.tolerance:.0%} of the best "
+                  f"({winner.misfit:.4g} against {best_entry.candidate.name}'s {best:.4g})")
+        return Verdict(winner.candidate, rows, reason)

@@ -1,0 +1,79 @@
+"""The tournament: the rung schedule, stopping a fit that falls behind, parsimony, the table."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from nct.method.select import Candidate, SelectionConf, Tournament
+
+CONF = SelectionConf(rungs=["static", "rigid", "free"], first_budget=0.25, tolerance=0.05)
+STATIC, RIGID, FREE = (Candidate(r, r, (i,)) for i, r in enumerate(CONF.rungs))
+
+
+def history(losses: list[float], every: int = 100) -> list[tuple[int, float]]:
+    return [(every * (i + 1), loss) for i, loss in enumerate(losses)]
+
+
+def test_the_schedule_doubles_from_the_first_budget_on_the_checks():
+    assert Tournament(1000, 50, CONF).milestones == [250, 500]
+    assert Tournament(1000, 100, CONF).milestones == [300, 500]
+    assert Tournament(1000, 100, SelectionConf(first_budget=0.1)).milestones == [100, 200, 400, 800]
+    assert Tournament(1000, 0, CONF).milestones == []
+
+
+def test_the_first_candidate_is_never_stopped():
+    t = Tournament(1000, 100, CONF)
+    assert not t.stops()(history([9.0, 9.0, 9.0]))
+
+
+def test_a_fit_behind_the_best_at_a_rung_stops_there_and_is_pruned():
+    t = Tournament(1000, 100, CONF)
+    t.record(STATIC, history([1.0] * 10), 1000, 1.0)
+    stops = t.stops()
+    assert not stops(history([1.2]))  # step 100: before the first rung (300)
+    assert not stops(history([1.2, 1.2]))
+    assert stops(history([1.2, 1.2, 1.2]))  # step 300, the first rung: 20 % behind
+    assert not stops(history([1.2, 1.2, 1.04]))  # within 5 % of the best at the rung
+    assert not stops(history([1.2, 1.2, 1.04, 1.5]))  # step 400 is no rung
+    entry = t.record(RIGID, history([1.2, 1.2, 1.2]), 300, math.nan)
+    assert entry.pruned and "step 300" in entry.pruned
+
+
+def test_parsimony_keeps_the_simplest_within_tolerance():
+    t = Tournament(1000, 100, CONF)
+    t.record(STATIC, history([1.0] * 10), 1000, 1.00)
+    t.record(RIGID, history([0.99] * 10), 1000, 0.97)
+    t.record(FREE, history([0.9] * 10), 1000, 0.96)
+    v = t.verdict()
+    assert v.winner == STATIC and "simplest" in v.reason
+    assert [r["candidate"] for r in v.rows] == ["static", "rigid", "free"]
+    assert v.rows[0]["verdict"] == "winner" and "simpler" in v.rows[2]["verdict"]
+
+
+def test_a_clearly_better_complex_candidate_wins():
+    t = Tournament(1000, 100, CONF)
+    t.record(STATIC, history([1.0] * 10), 1000, 1.0)
+    t.record(FREE, history([0.5] * 10), 1000, 0.5)
+    v = t.verdict()
+    assert v.winner == FREE and v.rows[0]["verdict"].startswith("held-out misfit +100")
+
+
+def test_pruned_candidates_cannot_win():
+    t = Tournament(1000, 100, CONF)
+    t.record(STATIC, history([1.0] * 10), 1000, 1.0)
+    t.record(RIGID, history([2.0, 2.0, 2.0]), 300, 0.1)  # stopped: its (late) misfit is not comparable
+    assert t.verdict().winner == STATIC
+
+
+def test_no_finished_candidate_is_an_error():
+    with pytest.raises(ValueError, match="no candidate finished"):
+        Tournament(10, 100, CONF).verdict()
+
+
+@pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "select.rungs"), ({"first_budget": 0}, "first_budget"),
+                                         ({"tolerance": 1.0}, "select.tolerance")])
+def test_bad_settings_are_named(kwargs, key):
+    with pytest.raises(ValueError, match=key):
+        SelectionConf(**kwargs)
