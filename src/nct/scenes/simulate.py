@@ -14,7 +14,7 @@ import numpy as np
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
-from nct.scenes.phantoms import Phantom
+from nct.scenes.shapes import Phantom
 
 MU_PER_INTENSITY_CM = 0.2  # linear attenuation (1/cm) of intensity 1.0
 FOV_SIDE_CM = 25.0  # physical side of the field of view
