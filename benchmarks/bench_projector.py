@@ -47,7 +47,7 @@ def bench_fbp_frames(views_per_rotation: int, rotations: float, size: int, frame
         values=rng.random((scanner.n_views, scanner.n_bins), dtype=np.float32),
         angles=scanner.angles,
         times=scanner.times,
-        bin_spacing=scanner.bin_spacing,
+        geometry=scanner.geometry,
     )
     times = np.linspace(0, scanner.duration, frames)
     ms = best_of(lambda: fbp_frames(sino, ImageGrid(size), times), repeats=2)

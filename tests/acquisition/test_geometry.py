@@ -152,7 +152,7 @@ def test_subsets_and_unit_changes_keep_the_geometry():
     from nct.method.reconstruct import subset
 
     geometry = GEOMETRIES["fan-curved-offset"]
-    sino = Sinogram(np.ones((4, geometry.n_bins), np.float32), np.arange(4.0), np.arange(4.0), **geometry.keys())
+    sino = Sinogram(np.ones((4, geometry.n_bins), np.float32), np.arange(4.0), np.arange(4.0), geometry)
     assert subset(sino, np.array([0, 2])).geometry == geometry
     halved = Units(2.0).sinogram(sino).geometry
     assert halved == FanGeometry(144, 0.00625, 1.0, 0.5, "curved", -0.05)

@@ -32,7 +32,7 @@ def make_sino(with_truth: bool = True) -> Sinogram:
     rng = np.random.default_rng(0)
     truth = Truth(rng.random((3, 8, 8), dtype=np.float32), np.array([0.0, 0.1, 0.2]), 1.0, 0.5) if with_truth else None
     return Sinogram(rng.random((10, 6), dtype=np.float32), np.linspace(0, np.pi, 10), np.linspace(0, 0.2, 10),
-                    0.1, None, truth)
+                    ParallelGeometry(6, 0.1), truth)
 
 
 def write(path, **arrays):
@@ -52,7 +52,7 @@ def test_round_trip(tmp_path):
     np.testing.assert_array_equal(r.values, s.values)
     np.testing.assert_array_equal(r.angles, s.angles)
     np.testing.assert_array_equal(r.truth.frames, s.truth.frames)
-    assert r.bin_spacing == 0.1 and r.truth.extent == 1.0 and r.truth.level == 0.5
+    assert r.geometry == s.geometry and r.truth.extent == 1.0 and r.truth.level == 0.5
     assert r.i0 is None
 
 
@@ -130,7 +130,7 @@ def write_geometry(path, geometry, **changes) -> None:
     """A valid file of ``geometry`` (analytic ellipses, 12 views) with keys changed (None: removed)."""
     angles = np.linspace(0, 2 * np.pi, 12, endpoint=False)
     values = closed_form_sinogram(geometry, angles).astype(np.float32)
-    save_sinogram(path, Sinogram(values, angles, np.linspace(0, 0.25, 12), **geometry.keys()))
+    save_sinogram(path, Sinogram(values, angles, np.linspace(0, 0.25, 12), geometry))
     with np.load(path) as data:
         arrays = dict(data)
     arrays.update({k: v for k, v in changes.items() if v is not None})
@@ -196,7 +196,7 @@ def line_integrals() -> Sinogram:
     """The static ellipse pair's closed-form sinogram, one full turn."""
     angles = np.linspace(0, 2 * np.pi, N_VIEWS, endpoint=False)
     values = closed_form_sinogram(GEOMETRY, angles).astype(np.float32)
-    return Sinogram(values, angles, np.linspace(0, 0.25, N_VIEWS), **GEOMETRY.keys())
+    return Sinogram(values, angles, np.linspace(0, 0.25, N_VIEWS), GEOMETRY)
 
 
 def keys_without_values(sino: Sinogram) -> dict[str, np.ndarray]:

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from omegaconf import DictConfig
 
+from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.io import save_sinogram
 from nct.acquisition.sinogram import Sinogram
 from nct.analysis.report import main as report_main
@@ -148,7 +149,8 @@ def test_joblib_multirun_then_report(tmp_path: Path):
 def test_failed_jobs_are_reported_and_resume_reruns_only_them(tmp_path: Path):
     views, s = np.arange(60), (np.arange(32) - 15.5) / 32
     disc = np.tile(2 * np.sqrt(np.clip(0.2**2 - s**2, 0, None)), (60, 1)).astype(np.float32)  # a centred disc
-    save_sinogram(tmp_path / "good.npz", Sinogram(disc, views * 2 * np.pi / 60, views * 0.25 / 60, 1 / 32))
+    good = Sinogram(disc, views * 2 * np.pi / 60, views * 0.25 / 60, ParallelGeometry(32, 1 / 32))
+    save_sinogram(tmp_path / "good.npz", good)
     (tmp_path / "garbage.npz").write_bytes(b"not a sinogram")
     paths = ",".join(str(tmp_path / name) for name in ("good.npz", "absent.npz", "garbage.npz"))
     sweep = tmp_path / "sweep"

@@ -94,7 +94,7 @@ def test_nct_fbp_reads_a_written_static_scene_right_in_every_unit(tmp_path, unit
     scene = static_scene(objects, direction, units, extent)
     sino = load_sinogram(S.write_scene(scene, tmp_path / "scene.npz", 48, 2, 0))
     truth = sino.truth
-    assert truth.extent == extent and sino.bin_spacing == pytest.approx(extent / 48)
+    assert truth.extent == extent and sino.geometry.bin_spacing == pytest.approx(extent / 48)
     assert truth.level == pytest.approx(0.25)
     assert sino.values.max() == pytest.approx(extent * S.line_integrals(scene, 48).max(), rel=1e-6)
     frames = fbp_frames(sino, ImageGrid(48, truth.extent), truth.times)

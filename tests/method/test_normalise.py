@@ -33,7 +33,7 @@ def scene():
 def rescaled(sino: Sinogram, length: float, intensity: float) -> Sinogram:
     """The same acquisition written with lengths x ``length`` and intensities x ``intensity``."""
     values = (sino.values.astype(np.float64) * length * intensity).astype(np.float32)
-    return Sinogram(values, sino.angles, sino.times, sino.bin_spacing * length)
+    return Sinogram(values, sino.angles, sino.times, sino.geometry.scaled(length))
 
 
 def dice_in(sino: Sinogram, times: np.ndarray, length: float, intensity: float) -> tuple[float, np.ndarray]:

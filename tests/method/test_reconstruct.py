@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 
+from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import DivergenceError
@@ -79,8 +80,8 @@ def test_fit_never_reads_the_truth(acquisition):
     sino, times = acquisition
     fake = Truth(frames=np.random.default_rng(5).random(sino.truth.frames.shape).astype(np.float32),
                  times=sino.truth.times, extent=9.0, level=0.1)
-    swapped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=fake)
-    stripped = Sinogram(sino.values, sino.angles, sino.times, sino.bin_spacing, truth=None)
+    swapped = Sinogram(sino.values, sino.angles, sino.times, sino.geometry, truth=fake)
+    stripped = Sinogram(sino.values, sino.angles, sino.times, sino.geometry, truth=None)
     short = replace(OPTIM, init_steps=10, fit_steps=10)
     base = run(sino, times, short).frames
     np.testing.assert_array_equal(run(swapped, times, short).frames, base)
@@ -125,11 +126,11 @@ def test_divergence_is_checked_on_logging_steps_and_the_last():
 
 def test_time_is_measured_in_rotations():
     angles = 0.3 + np.linspace(0, 4 * np.pi, 9)  # two rotations over 1 s, starting at t = 2 s
-    sino = Sinogram(np.zeros((9, 4), np.float32), angles, 2.0 + np.linspace(0, 1, 9), 0.25)
+    sino = Sinogram(np.zeros((9, 4), np.float32), angles, 2.0 + np.linspace(0, 1, 9), ParallelGeometry(4, 0.25))
     clock = rotations_since_start(sino)
     torch.testing.assert_close(clock(np.array([2.0, 2.5, 3.0])), torch.tensor([0.0, 1.0, 2.0]))
     with pytest.raises(ValueError, match="positive time"):
-        rotations_since_start(Sinogram(np.zeros((2, 4), np.float32), np.zeros(2), np.zeros(2), 0.25))
+        rotations_since_start(Sinogram(np.zeros((2, 4), np.float32), np.zeros(2), np.zeros(2), sino.geometry))
 
 
 def test_every_tenth_view_is_held_out():

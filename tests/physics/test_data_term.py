@@ -69,7 +69,7 @@ def test_view_noise_in_the_method_units():
     assert sino.attenuation == attenuation_scale(1.0)
     assert view_noise(sino, "l1") is None
     units = Units(250.0, 0.8)
-    mm = Sinogram(sino.values * np.float32(250.0), sino.angles, sino.times, 250 / 64, i0=1e4,
+    mm = Sinogram(sino.values * np.float32(250.0), sino.angles, sino.times, sino.geometry.scaled(250.0), i0=1e4,
                   attenuation=attenuation_scale(250.0))
     given = view_noise(units.sinogram(mm), "poisson")
     in_mm = noise_std(mm.values, 1e4, attenuation_scale(250.0)) / (0.8 * 250.0)

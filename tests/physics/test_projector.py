@@ -204,14 +204,14 @@ def scan(views_per_rotation=72, rotations=2.0, n=33, start_angle=0.3, ellipses=(
     values = ellipse_projection(scanner.bin_positions, scanner.angles, list(ellipses))
     if gain is not None:
         values = values * gain(scanner.times)[:, None]
-    return Sinogram(values.astype(np.float32), scanner.angles, scanner.times, scanner.bin_spacing)
+    return Sinogram(values.astype(np.float32), scanner.angles, scanner.times, scanner.geometry)
 
 
 def test_static_scene_frames_all_equal_fbp_of_half_turn():
     sino = scan()
     grid = ImageGrid(33)
     frames = fbp_frames(sino, grid, np.array([0.0, 0.1, 0.26, 0.3, 0.5]))
-    reference = fbp(sino.values[:36], sino.angles[:36], grid, sino.bin_spacing)
+    reference = fbp(sino.values[:36], sino.angles[:36], grid, sino.geometry.bin_spacing)
     assert frames.dtype == np.float32 and frames.shape == (5, 33, 33)
     np.testing.assert_allclose(frames, np.broadcast_to(reference, frames.shape), atol=1e-5)
 
@@ -220,7 +220,7 @@ def test_full_turn_window_equals_full_rotation_fbp():
     sino = scan(rotations=1.0)
     grid = ImageGrid(33)
     frames = fbp_frames(sino, grid, np.linspace(0, 0.25, 4), window_deg=360)
-    reference = fbp(sino.values, sino.angles, grid, sino.bin_spacing)
+    reference = fbp(sino.values, sino.angles, grid, sino.geometry.bin_spacing)
     np.testing.assert_allclose(frames, np.broadcast_to(reference, frames.shape), atol=1e-5)
 
 
@@ -252,15 +252,15 @@ def test_chunked_running_sums_match_one_chunk(monkeypatch):
     monkeypatch.setattr(projector, "_CHUNK_SAMPLES", 7 * 33 * 33)
     np.testing.assert_allclose(fbp_frames(sino, grid, times, window_deg=90), whole, atol=1e-5)
     np.testing.assert_allclose(
-        fbp(sino.values, sino.angles, grid, sino.bin_spacing),
-        fbp(sino.values[:72], sino.angles[:72], grid, sino.bin_spacing),
+        fbp(sino.values, sino.angles, grid, sino.geometry.bin_spacing),
+        fbp(sino.values[:72], sino.angles[:72], grid, sino.geometry.bin_spacing),
         atol=1e-5,
     )
 
 
 def test_wrapped_angles_give_the_same_frames():
     sino = scan()
-    wrapped = Sinogram(sino.values, np.mod(sino.angles, 2 * math.pi), sino.times, sino.bin_spacing)
+    wrapped = Sinogram(sino.values, np.mod(sino.angles, 2 * math.pi), sino.times, sino.geometry)
     times = np.array([0.05, 0.25, 0.45])
     expected = fbp_frames(sino, ImageGrid(33), times)
     np.testing.assert_allclose(fbp_frames(wrapped, ImageGrid(33), times), expected, atol=1e-5)
@@ -272,7 +272,7 @@ def test_short_acquisition_uses_all_views_and_warns():
     with pytest.warns(UserWarning, match="window_deg") as caught:
         frames = fbp_frames(sino, grid, np.array([0.0, 0.05, 0.1]))
     assert len(caught) == 1
-    reference = fbp(sino.values, sino.angles, grid, sino.bin_spacing)
+    reference = fbp(sino.values, sino.angles, grid, sino.geometry.bin_spacing)
     np.testing.assert_allclose(frames, np.broadcast_to(reference, frames.shape), atol=1e-5)
 
 
@@ -297,7 +297,7 @@ def rebinning_error(geometry, views: int = 360) -> float:
     """Relative L2 error of the rebinned closed-form sinogram against the closed form on the parallel rays."""
     angles = np.linspace(0, 2 * math.pi, views, endpoint=False)
     sino = Sinogram(closed_form_sinogram(geometry, angles).astype(np.float32), angles, np.arange(views) * 1e-3,
-                    **geometry.keys())
+                    geometry)
     rebinned = to_parallel(sino)
     target = parallel_geometry_for(geometry)
     assert rebinned.geometry == target and rebinned.times is sino.times

@@ -31,7 +31,7 @@ def test_noiseless_is_the_phantom_projection_with_scanner_geometry():
     assert np.array_equal(sino.values, phantom.project(SCANNER, GRID))
     assert sino.values.dtype == np.float32 and sino.values.shape == (60, 48)
     assert np.array_equal(sino.angles, SCANNER.angles) and np.array_equal(sino.times, SCANNER.times)
-    assert sino.bin_spacing == SCANNER.bin_spacing
+    assert sino.geometry == SCANNER.geometry
 
 
 def test_same_seed_same_sinogram():

@@ -165,7 +165,7 @@ def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
     geometry = _geometry(data, path, values.shape[1])
     truth = _load_truth(data, path)
     attenuation = _scalar(data, path, "attenuation") if "attenuation" in data else 1.0
-    return Sinogram(values, angles, times, truth=truth, i0=i0, attenuation=attenuation, **geometry.keys())
+    return Sinogram(values, angles, times, geometry, truth=truth, i0=i0, attenuation=attenuation)
 
 
 def _values(data: dict[str, np.ndarray], path: str) -> tuple[np.ndarray, float | None]:

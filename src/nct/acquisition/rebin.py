@@ -52,7 +52,7 @@ def to_parallel(sino: Sinogram) -> Sinogram:
     bin_index = (np.take_along_axis(u, best, 0)[0] - geometry.bin_positions[0]) / geometry.bin_spacing
     values = map_coordinates(np.asarray(sino.values, dtype=np.float64), [view_index, bin_index], order=1,
                              mode="constant", cval=0.0)
-    return Sinogram(values.astype(np.float32), sino.angles, sino.times, target.bin_spacing, truth=sino.truth)
+    return Sinogram(values.astype(np.float32), sino.angles, sino.times, target, truth=sino.truth)
 
 
 def _monotonic(theta: np.ndarray) -> np.ndarray:

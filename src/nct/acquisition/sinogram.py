@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nct.acquisition.geometry import FanGeometry, ParallelGeometry, make_geometry
+from nct.acquisition.geometry import FanGeometry, ParallelGeometry
 
 
 @dataclass(frozen=True)
@@ -28,9 +28,8 @@ class Sinogram:
     """Line integrals of one acquisition.
 
     values: [n_views, n_bins] float32; angles: [n_views] radians; times: [n_views] seconds,
-    non-decreasing; bin_spacing: detector pitch in the image's physical units. Parallel beam
-    unless ``source_distance`` is given; the detector fields are the file keys of ``io.py``, and
-    `geometry` is what every consumer asks. i0: the incident counts per ray behind the values, for
+    non-decreasing; geometry: the rays of every bin (its ``n_bins`` that of ``values``), lengths in
+    the image's physical units. i0: the incident counts per ray behind the values, for
     the noise-aware data term (raw counts: mean flat − dark; simulations: ``data.noise_i0``; a
     file's key ``i0``); None when unknown. attenuation: k such that a value p transmits exp(−k·p)
     of them (1 for −log of normalised counts; the simulations' own scale, ``simulate.attenuation_scale``).
@@ -39,20 +38,14 @@ class Sinogram:
     values: np.ndarray
     angles: np.ndarray
     times: np.ndarray
-    bin_spacing: float
-    source_distance: float | None = None
+    geometry: ParallelGeometry | FanGeometry
     truth: Truth | None = None
-    detector_distance: float | None = None
-    detector_shape: str | None = None
-    detector_offset: float = 0.0
     i0: float | None = None
     attenuation: float = 1.0
 
-    @property
-    def geometry(self) -> ParallelGeometry | FanGeometry:
-        """The rays of every bin (raises ``ValueError`` naming the key of an invalid value)."""
-        return make_geometry(self.n_bins, self.bin_spacing, self.source_distance, self.detector_distance,
-                             self.detector_shape, self.detector_offset)
+    def __post_init__(self) -> None:
+        if self.geometry.n_bins != self.n_bins:
+            raise ValueError(f"Sinogram: values have {self.n_bins} bins, its geometry {self.geometry.n_bins}")
 
     @property
     def n_views(self) -> int:

@@ -42,8 +42,9 @@ class Units:
         kept, and the attenuation k rescaled so that k·p, the transmission's exponent, is unchanged."""
         scale = self.intensity * self.length
         values = np.asarray(sino.values, dtype=np.float64) / scale
-        return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times, i0=sino.i0,
-                        attenuation=sino.attenuation * scale, **sino.geometry.scaled(1 / self.length).keys())
+        return Sinogram(values=values.astype(np.float32), angles=sino.angles, times=sino.times,
+                        geometry=sino.geometry.scaled(1 / self.length), i0=sino.i0,
+                        attenuation=sino.attenuation * scale)
 
     def with_intensity_of(self, frames: np.ndarray) -> "Units":
         """These units with the intensity unit set from FBP ``frames`` [F, H, W] already in these

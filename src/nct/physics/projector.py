@@ -274,10 +274,10 @@ def fbp_frames(
     starts, ends = _windows(cumulative, np.asarray(sino.times, dtype=np.float64), times, math.radians(window_deg))
     scales = _half_turn_scale(cumulative[ends] - cumulative[starts])
     with torch.no_grad():
-        filtered = filter_sinogram(torch.as_tensor(sino.values, dtype=torch.float32), sino.bin_spacing, filter)
+        filtered = filter_sinogram(torch.as_tensor(sino.values, dtype=torch.float32), sino.geometry.bin_spacing, filter)
         weighted = filtered * torch.from_numpy(weights).float()[:, None]
         angles = torch.as_tensor(np.asarray(sino.angles, dtype=np.float64))
-        frames = _window_sums(weighted, angles, grid, sino.bin_spacing, starts, ends)
+        frames = _window_sums(weighted, angles, grid, sino.geometry.bin_spacing, starts, ends)
     return (frames * torch.from_numpy(scales).to(frames)[:, None, None]).numpy()
 
 

@@ -46,5 +46,5 @@ def simulate(phantom: Phantom, scanner: Scanner, grid: ImageGrid, frame_times: n
         values = add_poisson_noise(values, noise_i0, grid.extent, rng)
     truth = Truth(frames=phantom.frames(frame_times, grid), times=frame_times, extent=grid.extent,
                   level=0.5 * min(phantom.intensities))
-    return Sinogram(values=values, angles=scanner.angles, times=scanner.times, truth=truth, i0=noise_i0,
-                    attenuation=attenuation_scale(grid.extent), **scanner.geometry.keys())
+    return Sinogram(values=values, angles=scanner.angles, times=scanner.times, geometry=scanner.geometry, truth=truth,
+                    i0=noise_i0, attenuation=attenuation_scale(grid.extent))
