@@ -35,7 +35,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from scenes import Scene, draw_scenes, write_scene  # noqa: E402
+from scene_files import write_scene  # noqa: E402
+from scenes import Scene, draw_scenes  # noqa: E402
 
 from nct.analysis.benchmarking import (  # noqa: E402
     QUIET,
@@ -258,7 +259,8 @@ def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Accep
           " ".join(f"{m.intensity:.2f}" for m in o.scene.objects), d["fbp_nested_dice"], d["nct_nested_dice"]]
          for o, d in nested])
     return "\n".join(["# Generalisation", "", f"Command: `{command}` (this call: {elapsed_s / 60:.1f} min).", "",
-                      "Scenes drawn and simulated by `benchmarks/scenes.py` (independent of nct), reconstructed by "
+                      "Scenes drawn by `benchmarks/scenes.py` and simulated by `benchmarks/scene_files.py` "
+                      "(independent of nct), reconstructed by "
                       "`nct data=file` with the default method; a failed NeuralCT run counts as Dice 0. Dice and "
                       "MSE: each run's median over frames; per category: the median over scenes.", "",
                       "## Acceptance", "", *[f"- {line}" for line in checks.lines()], "",

@@ -27,7 +27,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from generalisation import MARGIN, NCT_SEED, Outcome, median, outcomes, scene_overrides  # noqa: E402
-from scenes import Acquisition, Ellipse, Motion, Scene, layout_ok, write_scene  # noqa: E402
+from scene_files import write_scene  # noqa: E402
+from scenes import Acquisition, Ellipse, Motion, Scene, layout_ok  # noqa: E402
 
 from nct.analysis.benchmarking import Job, benchmark_parser, positive_int, run_jobs  # noqa: E402
 from nct.run.metrics import dice  # noqa: E402

@@ -1,4 +1,4 @@
-"""The generalisation benchmark's own simulator (benchmarks/scenes.py, independent of nct): a
+"""The generalisation benchmark's own simulator (benchmarks/scenes.py and scene_files.py, independent of nct): a
 deterministic sampler that covers its ranges, exact ellipse projections, Poisson noise, and files
 that nct's loader and FBP read right in unit field of view, cm and mm; its acceptance checks count
 a failed NeuralCT run as Dice 0.
@@ -24,6 +24,7 @@ from nct.run.metrics import dice
 from tests.conftest import load_benchmark as load
 
 S = load("scenes")
+F = load("scene_files")
 G = load("generalisation")
 
 
@@ -65,14 +66,14 @@ def test_chords_of_a_centred_disc_match_the_closed_form():
     scene = static_scene([S.Ellipse((0.0, 0.0), 0.3, 0.3, 0.4, 1.0)])
     angles = np.linspace(0, np.pi, 7)
     s = np.tile(np.linspace(-0.4, 0.4, 81), (7, 1))
-    chords = S.chord_lengths(S.Pose.of(scene, 0, np.full(7, 5.0)), angles, s)
+    chords = F.chord_lengths(S.Pose.of(scene, 0, np.full(7, 5.0)), angles, s)
     np.testing.assert_allclose(chords, 2 * np.sqrt(np.clip(0.09 - s**2, 0, None)), atol=1e-12)
 
 
 def test_projection_of_an_off_centre_ellipse_has_its_area_and_centroid_at_every_angle():
     scene = static_scene([S.Ellipse((0.12, -0.07), 0.2, 0.08, 0.7, 1.5)])
-    values = S.line_integrals(scene, 128)
-    n_bins, spacing = S.detector(scene, 128)
+    values = F.line_integrals(scene, 128)
+    n_bins, spacing = F.detector(scene, 128)
     s = (np.arange(n_bins) - (n_bins - 1) / 2) * spacing
     angles = scene.acquisition.angles()
     np.testing.assert_allclose(values.sum(axis=1) * spacing, 1.5 * np.pi * 0.2 * 0.08, rtol=1e-3)
@@ -82,7 +83,7 @@ def test_projection_of_an_off_centre_ellipse_has_its_area_and_centroid_at_every_
 
 def test_poisson_noise_is_unbiased_with_the_expected_spread():
     p = np.ones(20000)  # unit FOV: k = 5, 1e4 * exp(-5) = 67 photons a ray
-    measured = S.add_noise(p, 1e4, 1.0, np.random.default_rng(0))
+    measured = F.add_noise(p, 1e4, 1.0, np.random.default_rng(0))
     assert measured.mean() == pytest.approx(1.0, abs=0.005)
     assert measured.std() == pytest.approx(1 / (5 * math.sqrt(1e4 * math.exp(-5))), rel=0.05)
 
@@ -92,11 +93,11 @@ def test_poisson_noise_is_unbiased_with_the_expected_spread():
 def test_nct_fbp_reads_a_written_static_scene_right_in_every_unit(tmp_path, units, extent, direction):
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((0.12, -0.12), 0.06, 0.05, 0.0, 0.5, parent=0)]
     scene = static_scene(objects, direction, units, extent)
-    sino = load_sinogram(S.write_scene(scene, tmp_path / "scene.npz", 48, 2, 0))
+    sino = load_sinogram(F.write_scene(scene, tmp_path / "scene.npz", 48, 2, 0))
     truth = sino.truth
     assert truth.extent == extent and sino.geometry.bin_spacing == pytest.approx(extent / 48)
     assert truth.level == pytest.approx(0.25)
-    assert sino.values.max() == pytest.approx(extent * S.line_integrals(scene, 48).max(), rel=1e-6)
+    assert sino.values.max() == pytest.approx(extent * F.line_integrals(scene, 48).max(), rel=1e-6)
     frames = fbp_frames(sino, ImageGrid(48, truth.extent), truth.times)
     assert dice(frames >= truth.level, truth.frames >= truth.level).min() > 0.95
     assert np.abs(frames - truth.frames).mean() < 0.02
@@ -147,7 +148,7 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
     from tests.conftest import compose_config
 
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]
-    path = S.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
+    path = F.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
     overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
                  "export.tiff=false", "export.png=false"]
     frames, k, rng, kappa, share, route, judge, starts = load("init_candidates").segmentation_inputs(path, 2, overrides)
