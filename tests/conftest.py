@@ -266,12 +266,14 @@ def siddon(image: np.ndarray, extent: float, start: np.ndarray, end: np.ndarray)
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
-def load_benchmark(name: str):
-    """A script of benchmarks/ as a module (the scripts are not part of the package; they import each other)."""
-    if str(BENCHMARKS) not in sys.path:
-        sys.path.insert(0, str(BENCHMARKS))
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
+def load_benchmark(path: str):
+    """A script of benchmarks/ as a module, by its path there without ``.py`` ("fan",
+    "diagnostics/band_race"); the scripts are not part of the package, and import those of their folder."""
+    script = BENCHMARKS / f"{path}.py"
+    if str(script.parent) not in sys.path:
+        sys.path.insert(0, str(script.parent))
+    spec = importlib.util.spec_from_file_location(script.stem, script)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
+    sys.modules[script.stem] = module
     spec.loader.exec_module(module)
     return module

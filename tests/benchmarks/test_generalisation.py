@@ -3,7 +3,7 @@ deterministic sampler that covers its ranges, exact ellipse projections, Poisson
 that nct's loader and FBP read right in unit field of view, cm and mm; its acceptance checks count
 a failed NeuralCT run as Dice 0.
 
-benchmarks/levels.py: the brightest-level ratio, and its report on a call's runs.
+benchmarks/diagnostics/object_levels.py: the brightest-level ratio, and its report on a call's runs.
 """
 
 from __future__ import annotations
@@ -142,7 +142,7 @@ def test_own_level_of_a_nested_object_adds_its_containers():
 
 
 def test_init_candidates_sees_what_the_run_segments(tmp_path):
-    """benchmarks/init_candidates.py stops the run where it segments: the judged candidate the run
+    """benchmarks/diagnostics/init_candidates.py stops the run where it segments: the judged candidate the run
     kept (metrics.json -> init -> start) has the a(k) it records as its initial levels."""
     from nct.run.pipeline import run_job
     from tests.conftest import compose_config
@@ -151,7 +151,8 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
     path = F.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
     overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
                  "export.tiff=false", "export.png=false"]
-    frames, k, rng, kappa, share, route, judge, starts = load("init_candidates").segmentation_inputs(path, 2, overrides)
+    candidates = load("diagnostics/init_candidates")
+    frames, k, rng, kappa, share, route, judge, starts = candidates.segmentation_inputs(path, 2, overrides)
     assert frames.ndim == 3 and k == 2 and judge is not None and starts == 2
     ranked = segmentations(frames, k, rng, kappa, share, route, judge)
     run_job(compose_config(["data=file", f"data.path={path}", "data.n_objects=2", *overrides]), tmp_path / "run")
@@ -168,7 +169,7 @@ def _disc(radius: float, level: float, size: int = 32) -> np.ndarray:
 
 
 def test_brightest_ratio_sees_a_disc_drawn_wider_and_fainter():
-    levels = load("levels")
+    levels = load("diagnostics/object_levels")
     truth = _disc(3, 2.0)
     assert levels.brightest_ratio(truth, truth) == pytest.approx(1.0)
     # Twice as wide at half the level: about the same mass, but the true disc's pixels read 1.0.
@@ -186,7 +187,7 @@ def _run(call, scene: str, truth: np.ndarray, nct: np.ndarray, fbp: np.ndarray) 
 
 
 def test_levels_report_lists_the_scenes_where_nct_is_fainter_than_fbp(tmp_path, capsys):
-    levels = load("levels")
+    levels = load("diagnostics/object_levels")
     call = tmp_path / "call"
     truth = _disc(3, 2.0)
     _run(call, "scene000", truth, _disc(6, 1.0), 0.95 * truth)   # NCT 0.5, FBP 0.95: listed
@@ -201,6 +202,6 @@ def test_levels_report_lists_the_scenes_where_nct_is_fainter_than_fbp(tmp_path, 
 
 
 def test_levels_report_says_when_there_is_nothing_to_read(tmp_path, capsys):
-    levels = load("levels")
+    levels = load("diagnostics/object_levels")
     assert levels.main(["--call", str(tmp_path)]) == 1
-    assert "levels: error: no scenes.csv" in capsys.readouterr().err
+    assert "object_levels: error: no scenes.csv" in capsys.readouterr().err

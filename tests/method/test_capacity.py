@@ -271,7 +271,8 @@ def test_band_choices_copies_each_scene_from_the_run_the_rule_keeps(tmp_path):
     from tests.conftest import load_benchmark as load
     narrow = fake_call(tmp_path / "narrow", {"a": (1, 0.1), "b": (3, 0.1), "c": (2, 0.1)})
     wide = fake_call(tmp_path / "wide", {"a": (1, 0.01), "b": (3, 0.05), "c": (2, 0.07)})
-    assert load("band_choices").main(["--narrow", str(narrow), "--wide", str(wide), "--out", str(tmp_path / "o")]) == 0
+    args = ["--narrow", str(narrow), "--wide", str(wide), "--out", str(tmp_path / "o")]
+    assert load("diagnostics/band_choices").main(args) == 0
     copied = {s: json.loads((tmp_path / "o" / "runs" / s / "nct" / "metrics.json").read_text())["heldout_loss"]
               for s in "abc"}
     assert copied == {"a": 0.1, "b": 0.05, "c": 0.1}  # a: one rotation, never tried; c: 0.7 > 0.6
@@ -297,7 +298,7 @@ def test_band_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
 
     run("ahead", [0.2, 0.09, 0.05, 0.05, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04], kept=True)
     run("behind", [0.2, 0.09, 0.08, 0.095, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], kept=False)
-    assert load("band_race").main(["--call", str(tmp_path / "call"), "--at", "0.3", "--gain", "0.9"]) == 0
+    assert load("diagnostics/band_race").main(["--call", str(tmp_path / "call"), "--at", "0.3", "--gain", "0.9"]) == 0
     # "behind" is ahead at 300 (0.8) and behind at 400 (0.95): stopped there, saving 60 % of its 10 s fit;
     # each run is 40 s, 25 s of it without the band: 1.6x, and 34 / 25 = 1.36x for "behind".
     assert "| 0.3 | 0.9 | 1/2 | 400 | none | 6 of 30 s | 1.60 -> 1.48 |" in capsys.readouterr().out

@@ -139,7 +139,8 @@ def test_start_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
 
     run("a", [1.3, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2, 1.2], 0.12, kept=False)
     run("b", [1.3, 1.1, 0.8, 0.7, 0.6, 0.6, 0.6, 0.6, 0.6, 0.6], 0.06, kept=True)
-    assert load("start_race").main(["--call", str(tmp_path / "call"), "--at", "0.2", "0.3", "--gain", "1.0"]) == 0
+    args = ["--call", str(tmp_path / "call"), "--at", "0.2", "0.3", "--gain", "1.0"]
+    assert load("diagnostics/start_race").main(args) == 0
     out = capsys.readouterr().out
     # At 0.2 both stop at step 200 (80 % of each 10 s fit saved), b though it ends kept; at 0.3 only a,
     # at 300. Each run is 40 s, 30 s of it without the runner-up.
@@ -151,5 +152,5 @@ def test_start_race_replays_the_rule_on_recorded_histories(tmp_path, capsys):
 def test_start_race_says_when_no_run_had_a_runner_up(tmp_path, capsys):
     from tests.conftest import load_benchmark as load
     (tmp_path / "call" / "runs").mkdir(parents=True)
-    assert load("start_race").main(["--call", str(tmp_path / "call")]) == 1
+    assert load("diagnostics/start_race").main(["--call", str(tmp_path / "call")]) == 1
     assert "no finished run" in capsys.readouterr().err

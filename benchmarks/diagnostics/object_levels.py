@@ -6,7 +6,8 @@ Dice scores shapes at one threshold (half the faintest level), so a small object
 wide at half its contrast can score as well as a right one; this ratio sees it. Reads each run's
 ``reconstruction.npz`` (``nct``, ``fbp``) and the truth in its ``sinogram.npz``; nothing is re-run.
 
-    python benchmarks/levels.py --call outputs/benchmarks/gen100 --out benchmarks/results/generalisation/levels.md
+    python benchmarks/diagnostics/object_levels.py --call outputs/benchmarks/gen100 \
+        --out benchmarks/results/generalisation/levels.md
 """
 
 from __future__ import annotations
@@ -76,13 +77,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, help="also write the report here (markdown)")
     args = parser.parse_args(argv)
     if not (args.call / "scenes.csv").exists():
-        print(f"levels: error: no scenes.csv in {args.call}", file=sys.stderr)
+        print(f"object_levels: error: no scenes.csv in {args.call}", file=sys.stderr)
         return 1
     found = rows(args.call, args.within)
     if not found:
-        print(f"levels: error: no finished NeuralCT run in {args.call}", file=sys.stderr)
+        print(f"object_levels: error: no finished NeuralCT run in {args.call}", file=sys.stderr)
         return 1
-    command = "python benchmarks/levels.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python benchmarks/diagnostics/object_levels.py " + " ".join(argv if argv is not None else sys.argv[1:])
     text = report(found, command, args.margin)
     print(text)
     if args.out:

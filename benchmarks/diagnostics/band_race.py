@@ -8,7 +8,7 @@ run bit for bit as without the band, and one it lets go on is not touched, so th
 on a call whose bands all ran to the end follows from these histories alone. Written by hand: no
 library replays a stopping rule on logged curves.
 
-    python benchmarks/band_race.py --call outputs/benchmarks/gen_seed1 --at 0.2 0.3 0.4 --gain 0.8 0.9 1.0
+    python benchmarks/diagnostics/band_race.py --call outputs/benchmarks/gen_seed1 --at 0.2 0.3 0.4 --gain 0.8 0.9 1.0
 """
 
 from __future__ import annotations
@@ -76,18 +76,26 @@ def main(argv: list[str] | None = None) -> int:
     for at in args.at:
         for gain in args.gain:
             conf = replace(CapacityConf(), band_race_at=at, band_race_gain=gain)
-            cut, before, after, stops = [], [], [], []
+            times, stops = [], []
             for scene, ours, wide, steps, kept, full, band_time, run_time in runs:
                 race = conf.band_race(wide, ours, steps)
                 stopped = lost(race)
-                cut.append((1 - race["step"] / steps) * full if stopped else 0.0)
+                times.append((run_time, band_time, (1 - race["step"] / steps) * full if stopped else 0.0))
                 stops += [(scene, race["step"], kept)] if stopped else []
-                before.append(run_time / (run_time - band_time))
-                after.append((run_time - cut[-1]) / (run_time - band_time))
-            print(f"| {at:g} | {gain:g} | {len(stops)}/{len(runs)} | {', '.join(str(s) for _, s, _ in stops)} | "
-                  f"{', '.join(s for s, _, k in stops if k) or 'none'} | {sum(cut):.0f} of "
-                  f"{sum(r[6] for r in runs):.0f} s | {statistics.median(before):.2f} -> {statistics.median(after):.2f} |")
+            print(rule_row(at, gain, [f"{len(stops)}/{len(runs)}", ", ".join(str(s) for _, s, _ in stops),
+                                      ", ".join(s for s, _, k in stops if k) or "none"], times))
     return 0
+
+
+def rule_row(at: float, gain: float, cells: list[str], times: list[tuple[float, float, float]]) -> str:
+    """A row of a race rule's table: ``at``, ``gain`` and ``cells``, then, from each run's (run time, time
+    of the fits the rule races, time it saves of them), the time saved of the raced fits' and the median
+    ratio of the run's time to its time without those fits, as run -> with the rule."""
+    saved, raced = sum(s for _, _, s in times), sum(r for _, r, _ in times)
+    before = [run / (run - r) for run, r, _ in times]
+    after = [(run - s) / (run - r) for run, r, s in times]
+    return (f"| {at:g} | {gain:g} | " + " | ".join(cells) + f" | {saved:.0f} of {raced:.0f} s | "
+            f"{statistics.median(before):.2f} -> {statistics.median(after):.2f} |")
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ A NeuralCT run that ends with a held-out loss well above ``floor`` has not found
 explains the data as well as the truth does; one at or below it with a low Dice has found another
 field that explains the data as well (the data do not decide).
 
-Run: python benchmarks/fast_motion.py [--displacements 100 150 200] [--f-max 0.3 1.0] [--size 64]
+Run: python benchmarks/diagnostics/fast_motion.py [--displacements 100 150 200] [--f-max 0.3 1.0] [--size 64]
      [--steps 1500] [--out benchmarks/results/fast_motion]
 """
 
@@ -115,7 +115,8 @@ def main() -> int:
     header = list(rows[0])
     table = markdown_table(header, [[f"{r[k]:.4g}" for k in header] for r in rows])
     (args.out / "fast_motion.md").write_text(
-        f"# Fast motion: what the field holds, what the data tell\n\nCommand: `python benchmarks/fast_motion.py "
+        "# Fast motion: what the field holds, what the data tell\n\n"
+        "Command: `python benchmarks/diagnostics/fast_motion.py "
         f"{' '.join(sys.argv[1:])}` ({time.perf_counter() - start:.0f} s, one thread).\n\n{table}\n")
     print(f"wrote {args.out / 'fast_motion.md'}")
     return 0

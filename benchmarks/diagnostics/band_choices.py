@@ -8,7 +8,7 @@ runs recorded; ``generalisation.py --resume --out OUT`` then writes the report. 
 of such a report are those of one pass: the plain command at the band rule's code gives the same
 Dice and MSE and the real time.
 
-    python benchmarks/band_choices.py --narrow outputs/benchmarks/gen_seed1_starts \
+    python benchmarks/diagnostics/band_choices.py --narrow outputs/benchmarks/gen_seed1_starts \
         --wide outputs/benchmarks/gen_seed1_fmax05_all --out outputs/benchmarks/gen_seed1_band
 """
 

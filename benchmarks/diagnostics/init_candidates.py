@@ -9,7 +9,7 @@ is called and stopped where it hands them to the segmentation, so nothing here r
 Levels and a(k) are in the method's units: times the run's ``init.intensity_unit``
 (metrics.json) for the data's.
 
-    python benchmarks/init_candidates.py outputs/benchmarks/gen_seed1/scenes/scene011.npz --n-objects 2
+    python benchmarks/diagnostics/init_candidates.py outputs/benchmarks/gen_seed1/scenes/scene011.npz --n-objects 2
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ init.race_gain=1e9``) the outcome of any rule follows from the stage records alo
 (``metrics.json`` -> ``stages``: ``<pass>fit`` and its retries, the leader's; ``<pass>fit_start<n>``,
 a runner-up's). Written by hand: no library replays a stopping rule on logged curves.
 
-    python benchmarks/start_race.py --call outputs/benchmarks/gen_seed1_full --at 0.1 0.2 0.3 --gain 1.0 1.1
+    python benchmarks/diagnostics/start_race.py --call outputs/benchmarks/gen_seed1_full --at 0.1 0.2 0.3 --gain 1.0 1.1
 """
 
 from __future__ import annotations
@@ -15,12 +15,11 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import statistics
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from band_race import history
+from band_race import history, rule_row
 from omegaconf import OmegaConf
 
 from nct.method.conf import InitConf
@@ -99,11 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                     stopped += 1
                     saved[c.scene] += (1 - verdict["step"] / c.ran_to) * c.fit_time
                     lost_keeps += [f"{c.scene} {c.stage}"] if c.kept else []
-            before = [run_times[s] / (run_times[s] - spent[s]) for s in run_times]
-            after = [(run_times[s] - saved[s]) / (run_times[s] - spent[s]) for s in run_times]
-            print(f"| {at:g} | {gain:g} | {stopped}/{len(found)} | {', '.join(lost_keeps) or 'none'} | "
-                  f"{sum(saved.values()):.0f} of {sum(spent.values()):.0f} s | "
-                  f"{statistics.median(before):.2f} -> {statistics.median(after):.2f} |")
+            print(rule_row(at, gain, [f"{stopped}/{len(found)}", ", ".join(lost_keeps) or "none"],
+                           [(run_times[s], spent[s], saved[s]) for s in run_times]))
     return 0
 
 
