@@ -40,12 +40,18 @@ def history(run: Path, stages: dict, name: str) -> HeldoutHistory:
         return [(int(r["step"]) + 1, float(r["val/heldout_loss"])) for r in csv.DictReader(f) if r["val/heldout_loss"]]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def replay_args(argv: list[str] | None, doc: str, at: float | None, gain: float) -> argparse.Namespace:
+    """A replay's command line: ``--call`` (a generalisation call's folder) and the race rules to replay,
+    every ``--at`` with every ``--gain`` (default: the configured ``at``, ``gain``)."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument("--call", type=Path, required=True, help="a generalisation.py --out folder")
-    parser.add_argument("--at", type=float, nargs="+", default=[CapacityConf().band_race_at])
-    parser.add_argument("--gain", type=float, nargs="+", default=[CapacityConf().band_race_gain])
-    args = parser.parse_args(argv)
+    parser.add_argument("--at", type=float, nargs="+", default=[at])
+    parser.add_argument("--gain", type=float, nargs="+", default=[gain])
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = replay_args(argv, __doc__, CapacityConf().band_race_at, CapacityConf().band_race_gain)
     runs = []
     for metrics in sorted(args.call.glob("runs/*/nct/metrics.json")):
         m = json.loads(metrics.read_text())

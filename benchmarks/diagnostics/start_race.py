@@ -12,14 +12,13 @@ a runner-up's). Written by hand: no library replays a stopping rule on logged cu
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from band_race import history, rule_row
+from band_race import history, replay_args, rule_row
 from omegaconf import OmegaConf
 
 from nct.method.conf import InitConf
@@ -64,11 +63,7 @@ def challenges(run: Path, scene: str) -> list[Challenge]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--call", type=Path, required=True, help="a generalisation.py --out folder")
-    parser.add_argument("--at", type=float, nargs="+", default=[InitConf().race_at])
-    parser.add_argument("--gain", type=float, nargs="+", default=[InitConf().race_gain])
-    args = parser.parse_args(argv)
+    args = replay_args(argv, __doc__, InitConf().race_at, InitConf().race_gain)
     found, run_times = [], {}
     for metrics in sorted(args.call.glob("runs/*/nct/metrics.json")):
         scene = metrics.parent.parent.name
