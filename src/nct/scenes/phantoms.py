@@ -13,7 +13,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nct.scenes.shapes import EllipseParams, EllipsePhantom, LetterPhantom, Phantom, glyph_polygons, glyph_reach
+from nct.scenes.shapes import (
+    EllipseParams,
+    EllipsePhantom,
+    LetterPhantom,
+    Phantom,
+    glyph_polygons,
+    glyph_reach,
+)
 
 FOV_RADIUS = 0.5  # inscribed circle of the unit field of view: objects must stay inside
 WAVEFORMS = ("sinusoidal", "physiological")
