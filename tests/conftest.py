@@ -2,6 +2,8 @@
 tiny method settings and scenes, closed-form geometry cases, an independent reference projector and
 the loader of benchmarks/ scripts.
 
+The ``nct`` command run in-process (``nct`` fixture: exit code, stdout, stderr).
+
 Shared by the method tests: a tiny model and short fits, and a tiny moving-disc acquisition.
 
 Shared by the geometry tests: every geometry the projector, simulation and FBP must handle, and
@@ -37,6 +39,7 @@ from omegaconf import DictConfig
 from nct.acquisition.geometry import FanGeometry, ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
+from nct.cli import main as cli
 from nct.cli.main import CONFIG_MODULE
 from nct.method.capacity import CapacityConf
 from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
@@ -99,6 +102,27 @@ def tiny_cfg():
 @pytest.fixture
 def run_dir(tmp_path: Path) -> Path:
     return tmp_path / "run"
+
+
+@pytest.fixture
+def nct(tmp_path, monkeypatch, capsys):
+    """Run ``nct ARGS`` in-process in ``tmp_path``; return (exit code, stdout, stderr)."""
+    monkeypatch.chdir(tmp_path)
+
+    def call(*args: str) -> tuple[int, str, str]:
+        monkeypatch.setattr(sys, "argv", ["nct", *args])
+        GlobalHydra.instance().clear()
+        try:
+            cli.main()
+            code = 0
+        except SystemExit as done:
+            code = done.code
+        finally:
+            GlobalHydra.instance().clear()
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return call
 
 
 MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)

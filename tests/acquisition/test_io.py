@@ -4,11 +4,15 @@ The sinogram file's geometry keys: fan beam, detector shape and offset round-tri
 
 Raw data: transmission counts with flat and dark fields, and TIFF stacks with a sidecar, load to the
 line integrals they encode; bad raw input ends in one line naming the key.
+
+Inputs a user expects to work (issue 28 item 5): float64 and integer data read as float32 (a cast that
+loses detail warns), a transposed sinogram and a directory are named as such.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -71,7 +75,6 @@ def test_truth_level_defaults_to_half_peak(tmp_path):
     "change, key",
     [
         (lambda a: a.pop("angles"), "'angles'"),
-        (lambda a: a.update(sinogram=a["sinogram"].astype(np.float64)), "'sinogram'"),
         (lambda a: a.update(sinogram=a["sinogram"][0]), "'sinogram'"),
         (lambda a: a["sinogram"].__setitem__((2, 3), np.nan), "'sinogram'"),
         (lambda a: a.update(times=a["times"][::-1].copy()), "'times'"),
@@ -103,12 +106,71 @@ def test_bad_files_name_the_key(tmp_path, change, key):
     assert key in message and "\n" not in message
 
 
-def test_not_a_file(tmp_path):
+def test_not_a_file_or_a_directory_named_as_such(tmp_path, nct):
     with pytest.raises(InputError, match="no such file"):
         load_sinogram(tmp_path / "missing.npz")
     (tmp_path / "junk.npz").write_text("not a zip")
     with pytest.raises(InputError, match="not a readable .npz"):
         load_sinogram(tmp_path / "junk.npz")
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    with pytest.raises(InputError, match=r"^data\.path: .*scans is a directory, not a file: .*no \.npz or \.tif"):
+        load_sinogram(folder)
+    for name in ("b.tif", "a.npz", "notes.txt"):
+        (folder / name).write_text("")
+    listed = f"data.path: {folder} is a directory, not a file: name a sinogram file in it (it holds a.npz, b.tif)"
+    assert nct("debug=tiny", "logger=none", "method=fbp", "data=file", f"data.path={folder}") == (
+        2, "", f"nct: error: {listed}\n")
+    for i in range(6):
+        (folder / f"scan{i}.npz").write_text("")
+    with pytest.raises(InputError, match=r"\(it holds 8 \.npz/\.tif files\)$"):
+        load_sinogram(folder)
+    tifffile.imwrite(tmp_path / "scan.tif", np.ones((4, 4), np.float32))
+    with pytest.raises(InputError, match=r"^data\.sidecar: .*scans is a directory"):
+        load_sinogram(tmp_path / "scan.tif", folder)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.int16, np.uint16, np.int64])
+def test_float64_and_integer_data_are_read_as_float32_without_a_warning(tmp_path, caplog, dtype):
+    """numpy's default float64, integers (a 16-bit TIFF, a scaled sinogram) and integer times and
+    angles load as the float32 the method works in; exact or near-exact casts stay silent."""
+    a = good_arrays()
+    values = (a["sinogram"] * 1000).astype(dtype)
+    a.update(sinogram=values, times=np.arange(10), angles=np.arange(10) * 18, angles_unit=np.str_("deg"))
+    with caplog.at_level("WARNING"):
+        sino = load_sinogram(write(tmp_path / "cast.npz", **a))
+        tifffile.imwrite(tmp_path / "cast.tif", values)
+        np.savez(tmp_path / "cast_side.npz", **{k: v for k, v in a.items() if k != "sinogram"})
+        stack = load_sinogram(tmp_path / "cast.tif", tmp_path / "cast_side.npz")
+    assert sino.values.dtype == stack.values.dtype == np.float32 and caplog.records == []
+    for loaded in (sino, stack):
+        np.testing.assert_array_equal(loaded.values, values.astype(np.float32))
+
+
+def test_a_cast_to_float32_that_loses_detail_warns_in_one_line(tmp_path, caplog):
+    """Values 1e5 above a range of ~1 round by up to 2^-24 x 1e5 = 0.004 in float32: above 1e-6 of the range."""
+    a = good_arrays()
+    a.update(sinogram=a["sinogram"].astype(np.float64) + 1e5)
+    with caplog.at_level("WARNING"):
+        assert load_sinogram(write(tmp_path / "offset.npz", **a)).values.dtype == np.float32
+    (record,) = caplog.records
+    assert record.levelname == "WARNING" and "\n" not in record.getMessage()
+    assert "key 'sinogram': casting float64 to float32" in record.getMessage()
+
+
+@pytest.mark.parametrize("key", ["sinogram", "counts"])
+def test_a_transposed_sinogram_is_named_as_such(tmp_path, nct, key):
+    a = good_arrays()
+    a[key] = a.pop("sinogram").T.copy()
+    if key == "counts":
+        a.update(counts=np.exp(-a["counts"]), flat=np.float64(1.0))
+    path = write(tmp_path / "transposed.npz", **a)
+    expected = (f"{path}: key '{key}': the sinogram looks transposed: got [6, 10], expected [n_views=10, n_bins=6] "
+                "(angles and times hold 10 views)")
+    with pytest.raises(InputError, match=re.escape(expected) + "$"):
+        load_sinogram(path)
+    assert nct("debug=tiny", "logger=none", "method=fbp", "data=file", f"data.path={path}") == (
+        2, "", f"nct: error: {expected}\n")
 
 
 def test_degrees_accepted_when_the_file_says_so(tmp_path):

@@ -4,38 +4,14 @@ GPU or optional extra names its fix, and ``--help`` lists only the groups users 
 from __future__ import annotations
 
 import importlib.util
-import sys
 
 import pytest
 import torch
-from hydra.core.global_hydra import GlobalHydra
 
-from nct.cli import main as cli
 from nct.errors import InputError
 from nct.method.stages import check_accelerator
 
 QUICK = ["debug=tiny", "logger=none", "method=fbp"]
-
-
-@pytest.fixture
-def nct(tmp_path, monkeypatch, capsys):
-    """Run ``nct ARGS`` in-process in ``tmp_path``; return (exit code, stdout, stderr)."""
-    monkeypatch.chdir(tmp_path)
-
-    def call(*args: str) -> tuple[int, str, str]:
-        monkeypatch.setattr(sys, "argv", ["nct", *args])
-        GlobalHydra.instance().clear()
-        try:
-            cli.main()
-            code = 0
-        except SystemExit as done:
-            code = done.code
-        finally:
-            GlobalHydra.instance().clear()
-        out = capsys.readouterr()
-        return code, out.out, out.err
-
-    return call
 
 
 @pytest.mark.parametrize("args, message", [

@@ -1,11 +1,12 @@
 """The sinogram file: one ``.npz`` written by every run and read by ``data=file``.
 
-Keys: ``sinogram`` [n_views, n_bins] float32, ``angles`` [n_views] radians (degrees with
-``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing), ``bin_spacing`` scalar;
-optional ``detector_offset`` (default 0), and fan beam when ``source_distance`` is present, with
-``detector_distance`` (both > 0) and optional ``detector_shape`` ("flat" default, or "curved"):
-the convention of ``geometry.py``; for scoring ``truth`` [n_frames, H, W] with
-``truth_times`` [n_frames] and ``truth_extent`` scalar (and optionally ``truth_level``).
+Keys: ``sinogram`` [n_views, n_bins] (any real dtype, read as float32: `working_dtype`), ``angles``
+[n_views] radians (degrees with ``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing),
+``bin_spacing`` scalar; optional ``detector_offset`` (default 0), and fan beam when
+``source_distance`` is present, with ``detector_distance`` (both > 0) and optional
+``detector_shape`` ("flat" default, or "curved"): the convention of ``geometry.py``; for scoring
+``truth`` [n_frames, H, W] with ``truth_times`` [n_frames] and ``truth_extent`` scalar (and
+optionally ``truth_level``).
 
 Raw data instead of ``sinogram``: ``counts`` [n_views, n_bins] (>= 0) with ``flat`` and optional
 ``dark`` (default 0), each a scalar, [n_bins] or [n_views, n_bins]; the line integrals are
@@ -18,6 +19,7 @@ its values' transmission exp(−k·p), default 1). A TIFF stack (``.tif``/``.tif
 
 from __future__ import annotations
 
+import logging
 import zipfile
 from pathlib import Path
 
@@ -39,6 +41,10 @@ COUNTS_FLOOR = 1e-6  # normalised transmission below this (a ray that recorded n
 ANGLES_UNITS = ("rad", "deg")
 MAX_ROTATIONS = 16  # angles in radians spanning more turns than this look like degrees
 LARGEST = 1e9  # |line integral| beyond this is no attenuation (a scaling or type error)
+CAST_TOLERANCE = 1e-6  # a cast to float32 that moves a value by more than this share of the data's range warns
+LISTED_FILES = 5  # a directory given as data.path: its data files are listed when there are at most this many
+
+log = logging.getLogger(__name__)
 
 
 def save_sinogram(path: str | Path, sino: Sinogram) -> None:
@@ -103,14 +109,25 @@ def _scalar(data: dict, path: str, key: str, positive: bool = True) -> float:
 def load_sinogram(path: str | Path, sidecar: str | Path | None = None) -> Sinogram:
     """Read and validate a sinogram file (``.npz``, or a TIFF stack with its ``sidecar`` ``.npz``,
     by default the TIFF's name ending ``.npz``); raise `InputError` naming the first bad key."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"data.path: no such file: {path}")
+    path = _existing_file(Path(path), "data.path")
     if path.suffix.lower() in TIFF_SUFFIXES:
         return _parse(*_read_tiff(path, path.with_suffix(".npz") if sidecar is None else Path(sidecar)))
     if sidecar is not None:
         raise InputError(f"data.sidecar: only a TIFF stack (data.path=*.tif) takes a sidecar, not {path}")
     return _parse(_read_npz(path, "data.path"), str(path))
+
+
+def _existing_file(path: Path, config_key: str) -> Path:
+    """``path`` when it is a file; else `InputError` saying it is missing or a directory (naming the
+    directory's .npz and TIFF files when there are few)."""
+    if path.is_dir():
+        found = sorted(p.name for p in path.iterdir() if p.suffix.lower() in (".npz", *TIFF_SUFFIXES))
+        listing = ("it holds no .npz or .tif files" if not found else f"it holds {len(found)} .npz/.tif files"
+                   if len(found) > LISTED_FILES else "it holds " + ", ".join(found))
+        raise InputError(f"{config_key}: {path} is a directory, not a file: name a sinogram file in it ({listing})")
+    if not path.is_file():
+        raise InputError(f"{config_key}: no such file: {path}")
+    return path
 
 
 def _read_npz(path: Path, config_key: str) -> dict[str, np.ndarray]:
@@ -129,10 +146,10 @@ def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
         stack = np.squeeze(tifffile.imread(path))
     except (OSError, ValueError) as err:
         raise InputError(f"data.path: {path} is not a readable TIFF file ({err})") from None
-    if not sidecar.is_file():
+    if not sidecar.exists():
         raise InputError(f"data.sidecar: no such file: {sidecar} (a TIFF stack needs an .npz of its angles, "
                          "times, bin_spacing and other keys: see the README)")
-    arrays = _read_npz(sidecar, "data.sidecar")
+    arrays = _read_npz(_existing_file(sidecar, "data.sidecar"), "data.sidecar")
     source = f"{path} + {sidecar}"
     for key in DATA_KEYS:
         if key in arrays:
@@ -150,11 +167,13 @@ def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
     unknown = sorted(set(data) - set(REQUIRED) - set(DATA_KEYS) - set(OPTIONAL))
     if unknown:
         raise _fail(path, unknown[0], "one of " + ", ".join(DATA_KEYS + REQUIRED + OPTIONAL), "an unknown key")
-    values, i0 = _values(data, path)
     data_key = "counts" if "counts" in data else "sinogram"
+    _check_orientation(data, path, data_key)
+    values, i0 = _values(data, path)
     if values.shape[0] < 2 or values.shape[1] < 2:
         raise _fail(path, data_key, "shape [n_views >= 2, n_bins >= 2]", f"shape {values.shape}")
     _check_values(values, path, data_key)
+    values = working_dtype(values, path, data_key)
     n_views = values.shape[0]
     angles = _angles(data, path, n_views)
     times = _array(data, path, "times", 1, n_views).astype(np.float64)
@@ -182,10 +201,34 @@ def _values(data: dict[str, np.ndarray], path: str) -> tuple[np.ndarray, float |
     for key in RAW_KEYS:
         if key in data:
             raise _fail(path, key, "only with 'counts' (raw data), not with 'sinogram'", "the key present")
-    values = _array(data, path, "sinogram", 2)
-    if values.dtype != np.float32:
-        raise _fail(path, "sinogram", "dtype float32", f"dtype {values.dtype}")
-    return values, i0
+    return _array(data, path, "sinogram", 2), i0
+
+
+def _check_orientation(data: dict[str, np.ndarray], path: str, key: str) -> None:
+    """Refuse data [n_bins, n_views] (``key``: sinogram or counts) by name: its second axis, not its
+    first, matches the views that ``angles`` and ``times`` count."""
+    shape = np.shape(data.get(key))
+    views = {np.shape(data[k])[0] if np.ndim(data[k]) == 1 else None for k in ("angles", "times")}
+    if len(shape) == 2 and shape[0] != shape[1] and views == {shape[1]}:
+        raise InputError(f"{path}: key '{key}': the sinogram looks transposed: got [{shape[0]}, {shape[1]}], expected "
+                         f"[n_views={shape[1]}, n_bins={shape[0]}] (angles and times hold {shape[1]} views)")
+
+
+def working_dtype(values: np.ndarray, path: str, key: str) -> np.ndarray:
+    """``values`` as float32, the method's dtype, from any real dtype; one warning line when the cast
+    moves a value by more than CAST_TOLERANCE of the values' range. float32 rounds a value by at most
+    2^-24 (6e-8) of its magnitude, so values under 16x their range never warn; values far larger than
+    their spread (an offset: values near 1e5 that vary by 1) lose detail to the rounding."""
+    if values.dtype == np.float32:
+        return values
+    cast = values.astype(np.float32)
+    moved = float(np.max(np.abs(cast.astype(np.float64) - values)))
+    spread = float(values.max()) - float(values.min())  # not np.ptp: it overflows in small integer dtypes
+    if moved > CAST_TOLERANCE * spread:
+        log.warning("%s: key '%s': casting %s to float32 (the method's precision) moves values by up to %.3g, "
+                    "%.2g of their range %.3g: values far larger than their spread (an offset?) lose detail",
+                    path, key, values.dtype, moved, moved / spread if spread else np.inf, spread)
+    return cast
 
 
 def _line_integrals(data: dict[str, np.ndarray], path: str) -> tuple[np.ndarray, float]:

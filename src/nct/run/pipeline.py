@@ -25,7 +25,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.errors import DivergenceError, InputError, MethodError
 from nct.physics.projector import fbp_frames
 from nct.run import export
-from nct.run.config import FileConf, NCTConf, validate
+from nct.run.config import FileConf, NCTConf, RunSize, check_memory, validate
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
@@ -53,19 +53,24 @@ class Acquisition:
 
 def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     """Simulate the configured scene or load the sinogram file (frames on its truth grid if it has
-    one, else ``image.size`` pixels over ``data.extent``)."""
+    one, else ``image.size`` pixels over ``data.extent``); a file's sizes are checked against the
+    memory here (a simulation's in `validate`)."""
     if isinstance(conf.data, FileConf):
         sino = load_sinogram(conf.data.path, conf.data.sidecar)
         sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
         if sino.truth is not None:
-            grid = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent)
-            return Acquisition(sino, grid, sino.truth.times, conf.data.n_objects)
-        extent = conf.data.extent if conf.data.extent is not None else 2 * sino.geometry.field_radius
-        grid = ImageGrid(conf.image.size, extent)
-        span = float(np.ptp(sino.angles)) / (2 * math.pi)
-        n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))
-        edges = np.linspace(sino.times[0], sino.times[-1], n + 1)
-        return Acquisition(sino, grid, 0.5 * (edges[:-1] + edges[1:]), conf.data.n_objects)
+            grid, frame_times = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent), sino.truth.times
+            image_key = f"data.path={conf.data.path} (its truth frames)"
+        else:
+            extent = conf.data.extent if conf.data.extent is not None else 2 * sino.geometry.field_radius
+            grid, image_key = ImageGrid(conf.image.size, extent), f"image.size={conf.image.size}"
+            span = float(np.ptp(sino.angles)) / (2 * math.pi)
+            n = max(1, round(conf.image.frames_per_rotation * max(span, 1e-9)))
+            edges = np.linspace(sino.times[0], sino.times[-1], n + 1)
+            frame_times = 0.5 * (edges[:-1] + edges[1:])
+        check_memory(conf, RunSize(grid.size, len(frame_times), *sino.values.shape), image_key,
+                     f"data.path={conf.data.path}")
+        return Acquisition(sino, grid, frame_times, conf.data.n_objects)
     scanner = conf.scanner.build(conf.image.extent)
     grid = conf.image.build()
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
