@@ -1,5 +1,7 @@
 """The paper's sweeps, the launchers and the Optuna search compose as documented; tiny multiruns
-run end to end through `nct`, and `nct-report` reads them (ok, failed and resumed jobs)."""
+run end to end through `nct`, quietly (no plugin chatter, no colour codes in a pipe), the Optuna
+search starting from the default configuration, and `nct-report` reads them (ok, failed and
+resumed jobs)."""
 
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from omegaconf import DictConfig
+import yaml
+from omegaconf import DictConfig, OmegaConf
 
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.io import save_sinogram
@@ -22,6 +25,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.analysis.report import main as report_main
 from nct.analysis.report import planned_overrides, write_report
 from nct.cli.main import CONFIG_MODULE
+from nct.errors import InputError
 from tests.conftest import compose_config
 
 SWEEPS = Path(str(files(CONFIG_MODULE))) / "sweep"
@@ -107,10 +111,65 @@ def test_optuna_search_is_truth_free_and_survives_failures():
     cfg = compose_hydra("hparams_search=tv_fmax")
     sweeper = cfg.hydra.sweeper
     assert cfg.hydra.mode.name == "MULTIRUN" and sweeper._target_.endswith("OptunaSweeper")
-    assert sweeper.direction == "minimize" and sweeper.storage is None
+    assert sweeper.direction == "minimize" and sweeper.storage.url is None  # in memory
     assert sweeper.max_failure_rate == 1.0
     assert set(sweeper.params) == {"loss.tv_space", "loss.tv_time", "model.f_max"}
     assert cfg.phantom.name == "circle"
+
+
+def test_optuna_search_enqueues_every_searched_key_at_its_default():
+    pytest.importorskip("hydra_plugins.hydra_optuna_sweeper", reason="needs the optuna extra")
+    cfg = compose_hydra("hparams_search=tv_fmax")
+    first = cfg.hydra.sweeper.storage.first
+    assert first.keys() == cfg.hydra.sweeper.params.keys()
+    assert all(first[key] == OmegaConf.select(cfg, key) for key in first)
+    assert cfg.hydra.sweeper.storage.study_name == cfg.hydra.sweeper.study_name
+
+
+def test_study_storage_hands_the_defaults_out_first_and_once(tmp_path: Path):
+    optuna = pytest.importorskip("optuna", reason="needs the optuna extra")
+    from nct.analysis.sweeps import study_storage
+
+    def study(url: str | None):  # as Hydra's sweeper opens it
+        return optuna.create_study(study_name="s", storage=study_storage(url, "s", "minimize", first),
+                                   load_if_exists=True)
+
+    first, url = {"x": 0.0, "k": "b"}, f"sqlite:///{tmp_path / 'study.db'}"
+    for where in (None, url):
+        search = study(where)
+        trials = [search.ask() for _ in range(3)]
+        for trial in trials:
+            trial.suggest_float("x", 0.0, 1.0), trial.suggest_categorical("k", ["a", "b", "c"])
+            search.tell(trial, trial.params["x"])
+        assert trials[0].params == first and all(t.params != first for t in trials[1:])
+        assert search.best_value <= 0.0  # the best can never score below the defaults
+    resumed = study(url)  # the database's study goes on: nothing enqueued again
+    assert len(resumed.trials) == 3 and resumed.ask().number == 3 and resumed.trials[-1].params == {}
+    with pytest.raises(InputError, match="hydra.sweeper.study_name must be set"):
+        study_storage(None, None, "minimize", first)
+
+
+def quiet(done: subprocess.CompletedProcess) -> str:
+    """The command's output, checked for plugin chatter and colour codes."""
+    out = done.stdout + done.stderr
+    for noise in ("\x1b[", "setup plugin alembic", "Joblib.Parallel(", "Study name:", "Sampler:",
+                  "A new study created", "ExperimentalWarning"):
+        assert noise not in out, noise
+    return out
+
+
+def test_optuna_search_starts_from_the_defaults_quietly(tmp_path: Path):
+    pytest.importorskip("hydra_plugins.hydra_optuna_sweeper", reason="needs the optuna extra")
+    done = run_nct(tmp_path, "hparams_search=tv_fmax", *TINY, "hydra.sweeper.n_trials=2", "model.f_max=0.25",
+                   "hydra.sweep.dir=sweep")
+    assert done.returncode == 0, done.stderr[-3000:]
+    out = quiet(done)
+    sweep = tmp_path / "sweep"
+    first = yaml.safe_load((sweep / "0" / ".hydra" / "overrides.yaml").read_text())
+    assert first[:2] == ["loss.tv_space=0", "loss.tv_time=0"]  # the defaults, model.f_max fixed by the user
+    assert "\t#0 : loss.tv_space=0 loss.tv_time=0 " in out and "Best value: " in out
+    best = yaml.safe_load((sweep / "optimization_results.yaml").read_text())["best_value"]
+    assert best <= yaml.safe_load((sweep / "0" / "metrics.json").read_text())["heldout_loss"]
 
 
 # ---------------------------------------------------------------- end to end through the CLI
@@ -132,6 +191,7 @@ def report_rows(sweep: Path) -> list[dict[str, str]]:
 def test_joblib_multirun_then_report(tmp_path: Path):
     done = run_nct(tmp_path, "-m", "seed=0,1", *TINY, "hydra/launcher=local")
     assert done.returncode == 0, done.stderr[-3000:]
+    assert "\t#1 : seed=1 " in quiet(done)  # the job list stays
     # one sweep folder for the whole sweep, although each job ran in its own worker process
     (sweep,) = (tmp_path / "outputs" / "multirun").iterdir()
     assert sorted(p.name for p in sweep.iterdir()) == ["0", "1", "multirun.yaml"]

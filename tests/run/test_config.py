@@ -115,6 +115,7 @@ def test_composition_errors_name_the_key(override, error, words):
         ("heldout.run=0", "heldout.run must be >= 1"),
         ("trainer.devices=0", "trainer.devices must be >= 1"),
         ("trainer.snapshot_every_n_steps=-1", "trainer.snapshot_every_n_steps must be >= 0"),
+        ("trainer.progress_every_s=-1", "trainer.progress_every_s must be >= 0"),
         ("+phantom.displacment_deg=50", "did you mean phantom.displacement_deg?"),
         ("+seeds=1", "unknown key seeds: not a setting of the config; did you mean seed?"),
         ("phantom=composed +phantom.objects.0.angle=1", "unknown key phantom.objects[0].angle"),

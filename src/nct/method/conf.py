@@ -100,7 +100,8 @@ class TrainerConf:
     """Lightning's Trainer settings (config group ``trainer``: cpu | gpu).
 
     accelerator, devices: passed to Lightning. progress_bar: a bar per stage; None shows it when
-    stdout is a terminal (otherwise one log line per stage). log_every_n_steps: scalars;
+    stdout is a terminal (otherwise log lines: one every progress_every_s seconds of a stage, 0:
+    none, and one at its end). log_every_n_steps: scalars;
     image_every_n_steps: frame and residual images in TensorBoard. snapshot_every_n_steps: keep
     the field every this many steps of each stage and score it after the run, the points of the
     run's Dice-against-time curve (``trace.csv``, ``trace.png``; 0: none).
@@ -110,6 +111,7 @@ class TrainerConf:
     accelerator: str = "auto"
     devices: int = 1
     progress_bar: bool | None = None
+    progress_every_s: float = 5.0
     log_every_n_steps: int = 10
     image_every_n_steps: int = 200
     snapshot_every_n_steps: int = 0
@@ -117,6 +119,8 @@ class TrainerConf:
     def __post_init__(self) -> None:
         for key in ("devices", "log_every_n_steps", "image_every_n_steps"):
             require(getattr(self, key) >= 1, f"trainer.{key}", ">= 1", getattr(self, key))
+        require(self.progress_every_s >= 0, "trainer.progress_every_s", ">= 0 (0: no progress lines)",
+                self.progress_every_s)
         require(self.snapshot_every_n_steps >= 0, "trainer.snapshot_every_n_steps", ">= 0 (0: no curve)",
                 self.snapshot_every_n_steps)
 

@@ -30,7 +30,7 @@ from nct.acquisition.scanner import ImageGrid
 from nct.errors import DivergenceError, InputError
 from nct.method.conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.method.fields import Field, upsample
-from nct.method.progress import StageBar, log_stage, show_bar
+from nct.method.progress import StageBar, StageLog, log_stage, show_bar
 from nct.method.race import HeldoutHistory
 from nct.method.render import intensity, project_frames
 from nct.physics.data_term import misfit
@@ -482,7 +482,7 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     every = check_every if data.held else 0
     callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
     bar = show_bar(conf.progress_bar)
-    callbacks += [StageBar(name)] if bar else []
+    callbacks.append(StageBar(name) if bar else StageLog(name, conf.progress_every_s))
     stage_logger: TensorBoardLogger | CSVLogger | bool = False
     if log_dir is not None and logger == "tensorboard":
         stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
