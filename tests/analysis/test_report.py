@@ -129,6 +129,14 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     assert (displacement_sweep / "report" / "report.csv").is_file()
 
 
+def test_summary_lists_the_warnings_of_suspect_fits(displacement_sweep: Path):
+    assert "## Warnings\n\nNone: no fit the held-out views call suspect." in write_report(displacement_sweep).summary.read_text()
+    status = displacement_sweep / "4" / "status.json"
+    status.write_text(json.dumps(json.loads(status.read_text()) | {"warnings": ["suspect fit: its held-out misfit"]}))
+    text = write_report(displacement_sweep).summary.read_text()
+    assert "## Warnings\n\n- job 4 (phantom.displacement_deg=100 seed=1): suspect fit: its held-out misfit\n" in text
+
+
 def test_tv_grid_heat_map(tmp_path: Path):
     sweep = make_sweep(tmp_path / "tv", {"loss.tv_space": "0,1", "loss.tv_time": "0,1"}, [])
     for num, (s, t) in enumerate([(0, 0), (0, 1), (1, 0), (1, 1)]):

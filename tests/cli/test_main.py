@@ -61,5 +61,13 @@ def test_help_lists_only_the_groups_users_pick(nct):
     names = {line.split(":")[0] for line in groups.splitlines()[2:] if ":" in line}
     assert code == 0 and names == {"capacity", "data", "debug", "experiment", "fbp", "heldout", "hparams_search",
                                    "image", "init", "logger", "loss", "model", "optim", "phantom", "render",
-                                   "scanner", "sweep", "trainer"}
+                                   "scanner", "suspect", "sweep", "trainer"}
     assert "sweep: displacement, displacement_quick, fmax, fmax_quick, lambda_grid, lambda_grid_quick" in groups
+
+
+def test_a_single_run_is_timed_from_the_process_start(monkeypatch):
+    monkeypatch.setattr(cli, "_PROCESS_START", [1.0])
+    assert cli.job_start(single=True) == 1.0
+    assert cli.job_start(single=True) > 1.0  # claimed: a later run in the same process starts its own clock
+    monkeypatch.setattr(cli, "_PROCESS_START", [1.0])
+    assert cli.job_start(single=False) > 1.0  # a sweep's job: from its own start

@@ -27,6 +27,8 @@ def run_folder(root: Path, status: object = None, metrics: object = None) -> Pat
      Outcome(FINISHED, "metrics.json missing or unreadable")),
     ({"status": "ok", "error": None, "wall_time_s": 4.0}, {"heldout_loss": 0.1},
      Outcome(FINISHED, None, 4.0, {"heldout_loss": 0.1})),
+    ({"status": "ok", "error": None, "wall_time_s": 4.0, "warnings": ["suspect fit: a"]}, {"heldout_loss": 0.1},
+     Outcome(FINISHED, None, 4.0, {"heldout_loss": 0.1}, ("suspect fit: a",))),
 ])
 def test_read_outcome(tmp_path: Path, status, metrics, expected: Outcome):
     assert read_outcome(run_folder(tmp_path / "run", status, metrics)) == expected

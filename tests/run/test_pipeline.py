@@ -1,8 +1,10 @@
 """One run end to end (FBP path, in-process), the sinogram file path, resume and the CLI's errors."""
 
 import json
+import logging
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -22,7 +24,7 @@ def read(path):
 def test_fbp_run_writes_every_output(tiny_cfg, run_dir):
     run_job(tiny_cfg("method=fbp"), run_dir)
     status = read(run_dir / "status.json")
-    assert status["status"] == "ok"
+    assert status["status"] == "ok" and status["warnings"] == []  # FBP alone: no fit to doubt
     assert status["environment"]["torch"] == torch.__version__ and status["environment"]["numpy"] == np.__version__
     metrics = read(run_dir / "metrics.json")
     assert set(metrics["fbp"]) >= {"median_dice", "iqr_dice", "median_mse", "share_mse_lt_0.005", "share_dice_gt_0.85"}
@@ -74,6 +76,28 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
     assert {p: p.read_bytes() for p in run_dir.rglob("*") if p.is_file()} == before
 
 
+def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(tiny_cfg, run_dir, caplog):
+    started = time.perf_counter() - 100.0  # e.g. the process's start, given by the CLI
+    with caplog.at_level(logging.INFO, logger="nct.run.pipeline"):
+        run_job(tiny_cfg("method=fbp", "logger=none"), run_dir, started=started)
+    wall = read(run_dir / "status.json")["wall_time_s"]
+    assert read(run_dir / "metrics.json")["wall_time_s"] == wall
+    assert 100.0 < wall < time.perf_counter() - started
+    assert any(r.getMessage().startswith(f"wall time {wall:.1f} s") for r in caplog.records)
+
+
+@pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
+def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
+    """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""
+    with caplog.at_level(logging.WARNING, logger="nct.run.pipeline"):
+        run_job(tiny_cfg(f"optim.init_steps={steps}", f"optim.fit_steps={2 * steps}", "logger=none",
+                         "export.gif=false", "export.tiff=false", "export.png=false"), run_dir)
+    status, metrics = read(run_dir / "status.json"), read(run_dir / "metrics.json")
+    assert status["status"] == "ok" and bool(status["warnings"]) == warned
+    assert [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING] == status["warnings"]
+    assert (metrics["heldout_loss"] > metrics["heldout_fbp_loss"]) == warned
+
+
 def test_resume_skips_a_finished_job(tiny_cfg, run_dir):
     run_job(tiny_cfg("method=fbp", "logger=none"), run_dir)
     stamp = (run_dir / "status.json").stat().st_mtime_ns
@@ -108,6 +132,7 @@ def test_invalid_value_is_recorded_as_failed(tiny_cfg, run_dir):
         run_job(tiny_cfg("phantom.displacement_deg=400"), run_dir)
     status = read(run_dir / "status.json")
     assert status["status"] == "failed" and "phantom.displacement_deg" in status["error"]
+    assert status["warnings"] == []
 
 
 def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):

@@ -60,9 +60,10 @@ class Record:
     """What one job gave.
 
     status: ok | failed | diverged | timeout | invalid (NaN scores) | running (killed mid-run).
-    wall_time_s: the whole process (start-up included); run_time_s: data -> metrics inside the run
-    (metrics.json ``wall_time_s``). peak_mem_mib: the child's peak resident memory. n_params: from
-    metrics.json ``capacity.n_params`` (0 for FBP, NaN when the method does not report it).
+    wall_time_s: the whole process (start-up included); run_time_s: the job's own wall time, from the
+    process's start to its outputs written (metrics.json ``wall_time_s``). peak_mem_mib: the child's
+    peak resident memory. n_params: from metrics.json ``capacity.n_params`` (0 for FBP, NaN when the
+    method does not report it).
     dice, mse: medians over the run's frames. stages: metrics.json ``stages`` (per stage steps, time).
     """
 

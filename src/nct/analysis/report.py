@@ -51,6 +51,7 @@ class Job:
     metrics: dict[str, float | str] = field(default_factory=dict)
     settings: dict[str, float] = field(default_factory=dict)
     path: Path | None = None
+    warnings: tuple[str, ...] = ()
 
     def metric(self, name: str) -> float:
         """A numeric metric, NaN when the job has none."""
@@ -103,7 +104,7 @@ def collect_jobs(sweep_dir: Path) -> list[Job]:
 
 
 def read_job(job_dir: Path) -> Job:
-    """One job folder: overrides, its `read_outcome` (status, error, wall time) and flattened metrics."""
+    """One job folder: overrides, its `read_outcome` (status, error, wall time, warnings) and flattened metrics."""
     hydra_dir = job_dir / ".hydra"
     overrides = _parse_overrides(_load_yaml_list(hydra_dir / "overrides.yaml"))
     num = _job_num(hydra_dir / "hydra.yaml")
@@ -113,7 +114,7 @@ def read_job(job_dir: Path) -> Job:
     if wall is None and outcome.metrics is not None:
         wall = _number(outcome.metrics.get("wall_time_s"))
     settings = _settings(_load_yaml(hydra_dir / "config.yaml"), overrides)
-    return Job(num, overrides, outcome.status, outcome.error, wall, metrics, settings, job_dir)
+    return Job(num, overrides, outcome.status, outcome.error, wall, metrics, settings, job_dir, outcome.warnings)
 
 
 def missing_jobs(plan: DictConfig, found: set[int | None]) -> list[Job]:
@@ -557,7 +558,8 @@ def _short(value: str) -> str:
 
 
 def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) -> list[str]:
-    """The markdown summary: counts, tables by swept setting, every job, what did not finish."""
+    """The markdown summary: counts, tables by swept setting, every job, what did not finish, the
+    warnings of suspect fits."""
     counts: dict[str, int] = {}
     for job in jobs:
         counts[job.status] = counts.get(job.status, 0) + 1
@@ -587,6 +589,9 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
     if command:
         lines += ["", "Run the jobs that are not ok again, leaving finished ones untouched "
                   "(stop any run still going first):", "", f"    {command}"]
+    lines += ["", "## Warnings", ""]
+    lines += [f"- job {j.num} ({_label(j, varying) or 'no varying override'}): {w}"
+              for j in jobs for w in j.warnings] or ["None: no fit the held-out views call suspect."]
     lines += ["", "## Plots", "", *(f"![{name}]({path.name})" for name, path in plots.items()), ""]
     return lines
 

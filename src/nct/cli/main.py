@@ -7,6 +7,12 @@ with one line ``nct: error: ...`` on stderr and exit code 2, expected failures o
 
 from __future__ import annotations
 
+import time
+
+# Before every other import: a single run's one wall time (log, status.json, metrics.json) starts
+# with the process, as the user's clock does; claimed by the first job (`job_start`).
+_PROCESS_START = [time.perf_counter()]
+
 import os
 import sys
 from dataclasses import is_dataclass
@@ -38,16 +44,25 @@ register_configs()
 @hydra.main(version_base="1.3", config_path=f"pkg://{CONFIG_MODULE}", config_name="config")
 def app(cfg: DictConfig) -> float | None:
     """Run one reconstruction into Hydra's output folder; return the truth-free held-out loss."""
+    hydra_cfg = HydraConfig.get()
+    started = job_start(hydra_cfg.mode.name == "RUN")
     from nct.run.pipeline import run_job
 
-    hydra_cfg = HydraConfig.get()
     try:
-        return run_job(cfg, Path(hydra_cfg.runtime.output_dir), list(hydra_cfg.overrides.task))
+        return run_job(cfg, Path(hydra_cfg.runtime.output_dir), list(hydra_cfg.overrides.task), started)
     except Exception as err:
         message = one_line(err)
         if message is None or hydra_cfg.mode.name != "RUN":
             raise  # a sweep goes on with its other jobs; main() reports the error at its end
         fail(message, exit_code(err))  # exits here, before Hydra's own report of the failed job
+
+
+def job_start(single: bool) -> float:
+    """When this job's wall time starts (``time.perf_counter``): the process's start for the first
+    ``single`` run of the process, else now (each job of a sweep, or a later run in the same process)."""
+    now = time.perf_counter()
+    first = _PROCESS_START.pop() if _PROCESS_START else None
+    return first if single and first is not None else now
 
 
 def fail(message: str, code: int = 2) -> NoReturn:

@@ -173,6 +173,21 @@ class ExportConf:
 
 
 @dataclass
+class SuspectConf:
+    """When ``nct.run.suspect`` warns that a fit is poor, from the held-out views' misfits beyond
+    the noise's (config group ``suspect``; the measured separation is in conf/suspect/default.yaml).
+    ``fbp_ratio``: the fit's misfit above this × FBP's; ``excess``: the fit's misfit above this
+    share of the views' mean |value|."""
+
+    fbp_ratio: float = 1.0
+    excess: float = 0.1
+
+    def __post_init__(self) -> None:
+        require(self.fbp_ratio > 0, "suspect.fbp_ratio", "> 0", self.fbp_ratio)
+        require(self.excess > 0, "suspect.excess", "> 0", self.excess)
+
+
+@dataclass
 class NCTConf:
     """The whole run. ``seed`` fixes every random source (0 is a seed like any other).
 
@@ -195,6 +210,7 @@ class NCTConf:
     trainer: TrainerConf = field(default_factory=TrainerConf)
     logger: LoggerConf = field(default_factory=LoggerConf)
     export: ExportConf = field(default_factory=ExportConf)
+    suspect: SuspectConf = field(default_factory=SuspectConf)
     seed: int = 0
     method: str = "nct"
     resume: bool = False
@@ -277,6 +293,7 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "heldout": {"default": HeldoutConf},
     "trainer": {"default": TrainerConf},
     "logger": {"default": LoggerConf},
+    "suspect": {"default": SuspectConf},
 }
 
 

@@ -19,12 +19,13 @@ UNFINISHED = "unfinished"  # no readable status.json: never started, or killed b
 class Outcome:
     """status: the pipeline's ``ok``, ``failed`` or ``diverged``; ``running`` (still going, or killed
     mid-run); or `UNFINISHED`. metrics: ``metrics.json`` of a finished run, None otherwise or when it
-    cannot be read (``error`` then says why)."""
+    cannot be read (``error`` then says why). warnings: why the fit is suspect (status.json's)."""
 
     status: str
     error: str | None = None
     wall_time_s: float | None = None
     metrics: dict | None = None
+    warnings: tuple[str, ...] = ()
 
 
 def read_outcome(run_dir: Path) -> Outcome:
@@ -38,14 +39,17 @@ def read_outcome(run_dir: Path) -> Outcome:
     error = status.get("error")
     wall = status.get("wall_time_s")
     wall = float(wall) if isinstance(wall, (int, float)) and not isinstance(wall, bool) else None
+    listed = status.get("warnings")
+    warnings = tuple(str(w) for w in listed) if isinstance(listed, list) else ()
     if state == "running":
         return Outcome(state, error or "status running: still running, or interrupted", wall)
     if state != FINISHED:
         return Outcome(state, error, wall)
     metrics = _load_json(run_dir / "metrics.json")
     if not isinstance(metrics, dict):
-        return Outcome(state, "metrics.json missing or unreadable" + (f": {metrics}" if metrics else ""), wall)
-    return Outcome(state, error, wall, metrics)
+        return Outcome(state, "metrics.json missing or unreadable" + (f": {metrics}" if metrics else ""), wall,
+                       warnings=warnings)
+    return Outcome(state, error, wall, metrics, warnings)
 
 
 def _load_json(path: Path) -> dict | str | None:

@@ -12,6 +12,7 @@ import math
 import platform
 import time
 import traceback
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
@@ -102,8 +103,10 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
     return frames, extra, trace
 
 
-def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
-    """Do one run into ``out_dir``; return what goes into ``metrics.json``."""
+def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
+    """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
+    the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
+    run's warnings (`suspect_fit`)."""
     import lightning
     import torch
 
@@ -111,10 +114,10 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
         torch.set_num_threads(conf.threads)
     lightning.seed_everything(conf.seed, workers=True, verbose=False)
     rng = np.random.default_rng(conf.seed)
-    t0 = time.perf_counter()
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
     frames, extra, trace = reconstruct_all(conf, acq, out_dir)
+    warnings = suspect_fit(conf, acq, extra)
     result: dict = {"times": acq.frame_times.tolist(), **extra}
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
@@ -126,9 +129,25 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path) -> dict:
     elif trace:
         log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
-    result["wall_time_s"] = time.perf_counter() - t0
-    write_outputs(conf, cfg, acq, frames, scored, result, out_dir)
-    return result
+    write_outputs(conf, acq, frames, scored, result, out_dir)
+    result["wall_time_s"] = time.perf_counter() - started  # TensorBoard's summary, written next, records it too
+    if conf.logger.name == "tensorboard":
+        write_summary(cfg, acq, frames, scored, result, out_dir)
+    return result, warnings
+
+
+def suspect_fit(conf: NCTConf, acq: Acquisition, extra: dict) -> list[str]:
+    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`), none without one; adds FBP's and
+    the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``, ``heldout_noise_loss``)."""
+    if "heldout_loss" not in extra:
+        return []
+    from nct.run.suspect import heldout_misfits, suspect_warnings
+
+    misfits = heldout_misfits(acq.sino, acq.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
+    if misfits is None:
+        return []
+    extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
+    return suspect_warnings(misfits, conf.suspect)
 
 
 def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
@@ -142,11 +161,11 @@ def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
     return rows
 
 
-def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
+def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray],
                   scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
-    """reconstruction.npz, TIFF stacks, PNG strip, GIF, metric plot and the TensorBoard summary."""
+    """reconstruction.npz, TIFF stacks, PNG strip, GIF and metric plot."""
     export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames)
-    shown = ({"truth": acq.sino.truth.frames} if acq.sino.truth is not None else {}) | frames
+    shown = _shown(acq, frames)
     if conf.export.tiff:
         export.save_tiffs(out_dir / "frames", shown)
     if conf.export.png:
@@ -159,19 +178,28 @@ def write_outputs(conf: NCTConf, cfg: DictConfig, acq: Acquisition, frames: dict
         write_csv(result["trace"], out_dir / "trace.csv")
     if conf.export.gif:
         export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps)
-    if conf.logger.name == "tensorboard":
-        final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
-        final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
-        final["hp/wall_time_s"] = result["wall_time_s"]
-        capacity = result.get("capacity")
-        if capacity:
-            final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
-            write_capacity(out_dir / "tb", capacity)
-        if "trace" in result:
-            write_trace(out_dir / "tb", result["trace"])
-        overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
-        write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
-        write_frames(out_dir / "tb", shown)
+
+
+def _shown(acq: Acquisition, frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The frames a run shows: the truth's first, when known."""
+    return ({"truth": acq.sino.truth.frames} if acq.sino.truth is not None else {}) | frames
+
+
+def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
+                  scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
+    """The TensorBoard summary: final metrics and wall time as hparams, capacity, trace and frames."""
+    final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
+    final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
+    final["hp/wall_time_s"] = result["wall_time_s"]
+    capacity = result.get("capacity")
+    if capacity:
+        final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
+        write_capacity(out_dir / "tb", capacity)
+    if "trace" in result:
+        write_trace(out_dir / "tb", result["trace"])
+    overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
+    write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
+    write_frames(out_dir / "tb", _shown(acq, frames))
 
 
 def _write_json(path: Path, payload: dict) -> None:
@@ -207,20 +235,27 @@ def _settings(overrides: list[str] | None) -> list[str]:
     return sorted(o for o in overrides or [] if not o.startswith(IGNORED_OVERRIDES))
 
 
-def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) -> float | None:
+def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
+            started: float | None = None) -> float | None:
     """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
 
     ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
-    skips a finished folder only when it was made with the same settings.
+    skips a finished folder only when it was made with the same settings. ``started``: when the
+    job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
+    the start of its one wall time, which the log, status.json and metrics.json give alike.
+    status.json's ``warnings``: why the fit is suspect (`suspect_fit`), empty when nothing says so.
     """
+    started = time.perf_counter() if started is None else started
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = _settings(overrides)
-    t0, versions = time.perf_counter(), environment()
+    versions = environment()
 
-    def record(status: str, error: str | None = None, **extra) -> None:
-        _write_json(out_dir / "status.json", {"status": status, "error": error, "overrides": settings,
-                                              "wall_time_s": time.perf_counter() - t0, "environment": versions,
-                                              **extra})
+    def record(status: str, error: str | None = None, wall: float | None = None, warnings: Sequence[str] = (),
+               **extra) -> None:
+        _write_json(out_dir / "status.json", {
+            "status": status, "error": error, "overrides": settings,
+            "wall_time_s": time.perf_counter() - started if wall is None else wall,
+            "warnings": list(warnings), "environment": versions, **extra})
 
     previous = read_status(out_dir)
     try:
@@ -242,7 +277,7 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) 
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
     record("running")
     try:
-        result = run(conf, cfg, out_dir)
+        result, warnings = run(conf, cfg, out_dir, started)
     except MethodError as err:  # expected: the reason is the whole story
         record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}")
         raise
@@ -250,15 +285,18 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None) 
         record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
         raise
     _write_json(out_dir / "metrics.json", result)
-    record("ok")
-    _log_summary(result, out_dir)
+    record("ok", wall=result["wall_time_s"], warnings=warnings)
+    _log_summary(result, warnings, out_dir)
     return result.get("heldout_loss")
 
 
-def _log_summary(result: dict, out_dir: Path) -> None:
+def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
     for name in ("fbp", "nct"):
         if name in result:
             s = result[name]
             log.info("%s: median Dice %.3f, median MSE %.5f, frames Dice>0.85 %.0f%%", name.upper(),
                      s["median_dice"], s["median_mse"], 100 * s["share_dice_gt_0.85"])
-    log.info("wall time %.1f s; outputs in %s", result["wall_time_s"], out_dir)
+    for line in warnings:
+        log.warning("%s", line)
+    log.info("wall time %.1f s (as in status.json and metrics.json); outputs in %s",
+             result["wall_time_s"], out_dir)
