@@ -12,7 +12,7 @@ the closed-form line integrals of ellipses along their rays, derived from the co
 
 An independent reference projector for the tests: exact ray–pixel intersection lengths (Siddon's
 method) of a pixel image, along rays whose end points are derived here from the documented convention
-(README "Sinogram file", ``shared/DESIGN.md`` "Geometry convention"), not from ``nct.acquisition.geometry``.
+(docs/DATA.md "Geometry", ``shared/DESIGN.md`` "Geometry convention"), not from ``nct.acquisition.geometry``.
 
 Convention: a point (x, y), x right, y up, origin at the image centre; pixel (row, col) of N covers
 x in [col, col + 1]·extent/N − extent/2 and y in [N − row − 1, N − row]·extent/N − extent/2. At view

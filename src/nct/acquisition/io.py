@@ -148,7 +148,7 @@ def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
         raise InputError(f"data.path: {path} is not a readable TIFF file ({err})") from None
     if not sidecar.exists():
         raise InputError(f"data.sidecar: no such file: {sidecar} (a TIFF stack needs an .npz of its angles, "
-                         "times, bin_spacing and other keys: see the README)")
+                         "times, bin_spacing and other keys: see docs/DATA.md)")
     arrays = _read_npz(_existing_file(sidecar, "data.sidecar"), "data.sidecar")
     source = f"{path} + {sidecar}"
     for key in DATA_KEYS:
