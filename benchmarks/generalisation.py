@@ -16,7 +16,7 @@ Writes scenes.csv (one row per scene: drawn parameters, categories, both methods
 categories.csv, nct_vs_fbp.png and generalisation.md.
 
 Run: python benchmarks/generalisation.py [--quick] [--scenes N] [--seed S] [--size N] [--jobs 2]
-     [--only SCENE,...] [--override KEY=VALUE ...] [--out DIR] [--resume] [--timeout S]
+     [--subset | --only SCENE,...] [--override KEY=VALUE ...] [--out DIR] [--resume] [--timeout S]
 """
 
 from __future__ import annotations
@@ -56,6 +56,12 @@ CATEGORY_KEYS = ("motion", "speed", "size", "noise", "layout", "units")
 QUICK_SCENES, QUICK_SIZE, QUICK_FRAMES = 8, 64, 8
 FULL_SCENES, FULL_SIZE, FULL_FRAMES = 100, 128, 12
 NCT_SEED = 0  # the method's seed, the same for every scene: scenes vary, the method does not
+# The fixed subset every change to the method reruns first (--subset; sampler seed 0, 128 px): one- to
+# two-rotation scenes of every family, the borderline ones and the failures: static single (031) and
+# nested (086); single moving slow (019, 088: small) and fast (002; 050 over 4 rotations); two apart fast
+# (033), nested fast (079); three apart fast (084; 067, the closest to FBP).
+SUBSET = ("scene002", "scene019", "scene031", "scene033", "scene050", "scene067", "scene079", "scene084",
+          "scene086", "scene088")
 
 
 @dataclass(frozen=True)
@@ -282,6 +288,9 @@ def parse(argv: Sequence[str] | None = None):
                         f"--quick {QUICK_SIZE})")
     parser.add_argument("--frames", type=positive_int, help=f"truth frames per rotation (default {FULL_FRAMES}; "
                         f"--quick {QUICK_FRAMES})")
+    parser.add_argument("--subset", action="store_const", const=list(SUBSET), dest="only",
+                        help="the fixed subset every change to the method reruns first (sampler seed 0): "
+                        + ",".join(SUBSET))
     parser.add_argument("--only", type=lambda text: text.split(","), metavar="SCENE,...",
                         help="run and report only these of the drawn scenes (e.g. scene006,scene038)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",

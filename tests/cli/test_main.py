@@ -8,6 +8,7 @@ import importlib.util
 import pytest
 import torch
 
+from nct.cli import main as cli
 from nct.errors import InputError
 from nct.method.stages import check_accelerator
 
