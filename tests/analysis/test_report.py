@@ -12,18 +12,10 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from omegaconf import OmegaConf
 
-from nct.analysis.report import (
-    Job,
-    aggregate,
-    collect_jobs,
-    figures,
-    flatten_metrics,
-    heldout_vs_dice_figure,
-    main,
-    planned_overrides,
-    tv_grid,
-    write_report,
-)
+from nct.analysis.jobs import Job, collect_jobs, flatten_metrics, planned_overrides
+from nct.analysis.report import write_report
+from nct.analysis.report_figures import aggregate, figures, heldout_vs_dice_figure, tv_grid
+from nct.cli.report import main
 
 BASIC = "hydra._internal.core_plugins.basic_sweeper.BasicSweeper"
 

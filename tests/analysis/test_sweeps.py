@@ -22,8 +22,9 @@ from omegaconf import DictConfig, OmegaConf
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.io import save_sinogram
 from nct.acquisition.sinogram import Sinogram
-from nct.analysis.report import main as report_main
-from nct.analysis.report import planned_overrides, write_report
+from nct.analysis.jobs import planned_overrides
+from nct.analysis.report import write_report
+from nct.cli.report import main as report_main
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError
 from tests.conftest import compose_config
