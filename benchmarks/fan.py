@@ -117,12 +117,13 @@ def write_file(det: Detector, path: Path, size: int, views: int, frames: int) ->
     angles = 2 * np.pi * np.arange(views) / views
     times = ROTATION_TIME * np.arange(views) / views
     truth_times = (np.arange(frames) + 0.5) * ROTATION_TIME / frames
+    truth = truth_frames(truth_times, size)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, sinogram=line_integrals(det, angles, times).astype(np.float32), angles=angles,
                         times=times, bin_spacing=np.float64(det.bin_spacing), detector_offset=np.float64(det.offset),
                         source_distance=np.float64(SOURCE_DISTANCE), detector_distance=np.float64(DETECTOR_DISTANCE),
-                        detector_shape=np.str_(det.shape), truth=truth_frames(truth_times, size),
-                        truth_times=truth_times, truth_extent=np.float64(1.0), truth_level=np.float64(0.5))
+                        detector_shape=np.str_(det.shape), truth=truth, truth_times=truth_times,
+                        truth_extent=np.float64(1.0), truth_level=np.float64(0.5 * truth.max()))
     return path
 
 

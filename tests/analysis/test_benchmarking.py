@@ -244,7 +244,7 @@ def test_acceptance_criteria_on_hand_made_scores():
                                            False,  # letters: above 0.86 but not above FBP
                                            False,  # static: 0.986 < 0.997 - 0.01
                                            True, False]  # fast: 0.905 >= 0.90; 0.845 < 0.85
-    assert rows[1]["criterion"] == "NCT MSE < FBP MSE" and rows[1]["measured"] == "0.0040 vs 0.0240"
+    assert rows[1]["criterion"] == "NCT MSE < FBP MSE" and rows[1]["measured"] == "0.004 vs 0.024"
     assert accept.criteria({}) == []
 
 

@@ -22,7 +22,8 @@ BASIC = "hydra._internal.core_plugins.basic_sweeper.BasicSweeper"
 
 def summary(median_dice: float, median_mse: float) -> dict:
     """A metrics.summarise()-shaped dict."""
-    return {"median_mse": median_mse, "iqr_mse": [median_mse / 2, median_mse * 2], "median_dice": median_dice,
+    return {"median_mse": median_mse, "iqr_mse": [median_mse / 2, median_mse * 2], "median_nrmse": 0.1,
+            "median_psnr": 10 * np.log10(1 / median_mse), "median_ssim": 0.9, "median_dice": median_dice,
             "iqr_dice": [median_dice - 0.05, median_dice + 0.01], "share_mse_lt_0.005": 0.5,
             "share_dice_gt_0.85": 0.75, "per_frame": {"mse": [median_mse] * 3, "dice": [median_dice] * 3}}
 
@@ -110,6 +111,9 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     text = write_report(displacement_sweep).summary.read_text()
     assert "9 jobs: 1 failed, 1 missing, 6 ok, 1 unfinished." in text
     assert "| 0 | 3 | 0.66 ± 0.01 | 0.96 ± 0.01 |" in text
+    assert ("| job | phantom.displacement_deg | seed | status | FBP Dice | NCT Dice | FBP MSE | NCT MSE | FBP PSNR dB "
+            "| NCT PSNR dB | FBP SSIM | NCT SSIM | held-out loss | wall s |") in text
+    assert "| 0 | 0 | 0 | ok | 0.65 | 0.95 | 0.02 | 0.002 | 17 | 27 | 0.9 | 0.9 | 0.05 | 10 |" in text
     assert "- job 6 (phantom.displacement_deg=200 seed=0): **failed**: RuntimeError: boom" in text
     assert "second line" not in text
     assert "- job 7 (phantom.displacement_deg=200 seed=1): **unfinished**" in text

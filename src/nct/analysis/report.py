@@ -38,6 +38,9 @@ from nct.analysis.truth_free import truth_free_lines
 from nct.run.outcome import FINISHED
 from nct.run.tables import fmt, markdown_table, write_csv
 
+#: The per-job summaries of the summary's job table: those plotted, then the relative errors.
+JOB_STATS = (*SUMMARY_STATS, ("median_psnr", "PSNR dB"), ("median_ssim", "SSIM"))
+
 
 @dataclass(frozen=True)
 class Report:
@@ -112,10 +115,10 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         counts = tv_grid(jobs)[3]
         lines += [f"## NCT median Dice on the TV grid ({spread(counts.ravel(), 'mean')}; rows: TV space, "
                   "columns: TV time)", "", _tv_table(jobs), ""]
-    header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in SUMMARY_STATS for m in METHODS),
+    header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in JOB_STATS for m in METHODS),
               "held-out loss", "wall s"]
     rows = [[str(j.num), *(short_value(j.overrides.get(k, "")) for k in varying), j.status,
-             *(j.metric(f"{m}.{s}") for s, _ in SUMMARY_STATS for m in METHODS),
+             *(j.metric(f"{m}.{s}") for s, _ in JOB_STATS for m in METHODS),
              fmt(j.metric("heldout_loss"), 4), j.wall_time_s] for j in jobs]
     lines += ["## Jobs", "", markdown_table(header, rows), ""]
     broken = [j for j in jobs if j.status != FINISHED or j.error]

@@ -27,7 +27,7 @@ from nct.errors import DivergenceError, InputError, MethodError
 from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory, validate
-from nct.run.metrics import FrameMetrics, frame_metrics, summarise
+from nct.run.metrics import FrameMetrics, frame_metrics, quality_line, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
     run_hparams,
@@ -293,9 +293,7 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
 def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
     for name in ("fbp", "nct"):
         if name in result:
-            s = result[name]
-            log.info("%s: median Dice %.3f, median MSE %.5f, frames Dice>0.85 %.0f%%", name.upper(),
-                     s["median_dice"], s["median_mse"], 100 * s["share_dice_gt_0.85"])
+            log.info("%s: %s", name.upper(), quality_line(result[name]))
     for line in warnings:
         log.warning("%s", line)
     log.info("wall time %.1f s (as in status.json and metrics.json); outputs in %s",
