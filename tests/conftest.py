@@ -20,6 +20,9 @@ angle θ, d = (−sin θ, cos θ), e = (cos θ, sin θ); bin i at u_i = (i − (
 Parallel: the ray through u·e along d. Fan: from the source −D·d to the flat detector point
 D_d·d + u·e, or on the curved detector at fan angle γ = u/(D + D_d) from the central ray, i.e. the
 point −D·d + (D + D_d)(cos γ·d + sin γ·e).
+
+Shared by the figure tests (run/export.py, analysis/report_figures.py): `figure_problems`, what a
+figure lacks to explain itself.
 """
 
 from __future__ import annotations
@@ -34,6 +37,9 @@ import pytest
 import torch
 from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection, PathCollection
+from matplotlib.figure import Figure
 from omegaconf import DictConfig
 
 from nct.acquisition.geometry import FanGeometry, ParallelGeometry
@@ -301,3 +307,53 @@ def load_benchmark(path: str):
     sys.modules[script.stem] = module
     spec.loader.exec_module(module)
     return module
+
+
+def figure_problems(fig: Figure, units: tuple[str, ...] = ()) -> list[str]:
+    """What ``fig`` lacks to explain itself (empty when nothing): a title (the figure's, or every
+    panel's); x and y labels on every panel (its own or the figure's supxlabel/supylabel); each text of
+    ``units`` in some label; a colourbar when it shows images, a legend when it plots curves or points
+    (and no image); no plotted point (line vertex, scatter or error-bar point) nor title under a legend."""
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    problems = []
+    bars = [ax for ax in fig.axes if hasattr(ax, "_colorbar")]
+    panels = [ax for ax in fig.axes if ax not in bars]
+    sup = {name: getattr(fig, f"_sup{name}") for name in ("title", "xlabel", "ylabel")}
+    sup = {name: text.get_text() if text is not None else "" for name, text in sup.items()}
+    if not sup["title"] and not all(ax.get_title() for ax in panels):
+        problems.append("no title")
+    for i, ax in enumerate(panels):
+        for axis in ("x", "y"):
+            if not getattr(ax, f"get_{axis}label")() and not sup[f"{axis}label"]:
+                problems.append(f"panel {i} has no {axis} label")
+    labels = [sup["xlabel"], sup["ylabel"], *(t for ax in fig.axes for t in (ax.get_xlabel(), ax.get_ylabel()))]
+    problems += [f"no label names the unit {unit!r}" for unit in units if not any(unit in t for t in labels)]
+    legends = [*fig.legends, *(ax.get_legend() for ax in panels if ax.get_legend() is not None)]
+    if any(ax.images for ax in panels) and not any(im.colorbar is not None for ax in panels for im in ax.images):
+        problems.append("images without a colourbar")
+    if any((ax.lines or ax.collections) and not ax.images for ax in panels) and not legends:
+        problems.append("curves without a legend")
+    boxes = [legend.get_window_extent(renderer) for legend in legends]
+    titles = [t for t in (fig._suptitle, *(ax.title for ax in panels)) if t is not None and t.get_text()]
+    problems += [f"a legend covers the title {t.get_text()!r}" for t in titles
+                 if any(box.overlaps(t.get_window_extent(renderer)) for box in boxes)]
+    for i, ax in enumerate(panels):
+        for x, y in _plotted_points(ax):
+            if any(box.contains(x, y) for box in boxes):
+                problems.append(f"a legend covers a point of panel {i} at ({x:.0f}, {y:.0f}) px")
+                break
+    return problems
+
+
+def _plotted_points(ax) -> np.ndarray:
+    """Display coordinates [P, 2] of the data points an axes draws (lines, scatters, error bars)."""
+    points = [line.get_transform().transform(line.get_xydata()) for line in ax.lines]
+    for coll in ax.collections:
+        if isinstance(coll, PathCollection):  # a scatter: its points are its offsets
+            points.append(coll.get_offset_transform().transform(np.asarray(coll.get_offsets())))
+        elif isinstance(coll, LineCollection):  # error bars
+            points += [coll.get_transform().transform(segment) for segment in coll.get_segments() if len(segment)]
+    points = np.concatenate(points) if points else np.empty((0, 2))
+    return points[np.isfinite(points).all(axis=1)]

@@ -16,6 +16,7 @@ from nct.analysis.jobs import Job, collect_jobs, flatten_metrics, planned_overri
 from nct.analysis.report import write_report
 from nct.analysis.report_figures import aggregate, figures, heldout_vs_dice_figure, tv_grid
 from nct.cli.report import main
+from tests.conftest import figure_problems
 
 BASIC = "hydra._internal.core_plugins.basic_sweeper.BasicSweeper"
 
@@ -279,11 +280,34 @@ def test_legends_and_summary_say_what_is_shown(tmp_path: Path, n_seeds: int, sho
     """One seed: each point is one job, with no spread to speak of; several: their mean ± sd."""
     jobs = collect_jobs(sweep_with_seeds(tmp_path / "s", n_seeds))
     fig = figures(jobs)["displacement"]
-    assert [ax.get_legend().get_title().get_text() for ax in fig.axes] == [shown, shown]
+    assert [legend.get_title().get_text() for legend in fig.legends] == [shown]
     text = write_report(tmp_path / "s").summary.read_text()
     assert f"## By displacement (each job's median; {shown})" in text
     assert ("±" in text) == (n_seeds > 1)
     assert np.isnan(aggregate(jobs, "phantom.displacement_deg", "nct.median_dice").sd).all() == (n_seeds == 1)
+
+
+#: What each report figure's labels must name: its units (MSE in the data's intensity unit squared).
+FIGURE_UNITS = {"displacement": ("(deg)", "intensity unit²"), "f_max": ("cycles/rotation", "intensity unit²"),
+                "tv_grid": (), "accuracy_vs_time": ("(s)",), "heldout_vs_dice": ("unitless",)}
+
+
+def test_every_report_figure_explains_itself(tmp_path: Path, displacement_sweep: Path):
+    """Title, labels with units, a colourbar or a legend that covers no point, on every plot the
+    report draws (a displacement sweep with failures, an F_max x displacement sweep, a TV grid)."""
+    grid = make_sweep(tmp_path / "tv", {"loss.tv_space": "0,1", "loss.tv_time": "0,1"}, [])
+    mixed = make_sweep(tmp_path / "f", {"model.f_max": "0.3,3", "phantom.displacement_deg": "100,150"}, [])
+    for num, (a, b) in enumerate([(0, 0), (0, 1), (1, 0), (1, 1)]):
+        make_job(grid, num, [f"loss.tv_space={a}", f"loss.tv_time={b}"],
+                 {"status": "ok", "error": None, "wall_time_s": 5.0 + num}, ok_metrics(0.5 + 0.1 * num, 0.4, 5.0))
+        make_job(mixed, num, [f"model.f_max={(0.3, 3)[a]}", f"phantom.displacement_deg={(100, 150)[b]}"],
+                 {"status": "ok", "error": None, "wall_time_s": 5.0 + num}, ok_metrics(0.9 - 0.1 * num, 0.7, 5.0))
+    drawn = {}
+    for sweep in (displacement_sweep, grid, mixed):
+        for name, fig in figures(collect_jobs(sweep)).items():
+            drawn[name] = name
+            assert figure_problems(fig, FIGURE_UNITS[name]) == [], (sweep.name, name)
+    assert sorted(drawn) == sorted(FIGURE_UNITS)
 
 
 def overlapping_tick_labels(fig: Figure) -> list[tuple[str, str]]:

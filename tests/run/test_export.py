@@ -1,11 +1,19 @@
-"""Files for people: the movie's time label stays clear of the panels and their labels."""
+"""Files for people: every picture a run writes explains itself (title, labels with units, a
+colourbar or a legend that covers no data), and the movie's time label stays clear of the panels."""
 
 from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+import pytest
 
-from nct.run.export import movie_figure, save_movie
+from nct.run.export import metric_figure, movie_figure, save_movie, strip_figure, trace_figure
+from nct.run.metrics import frame_metrics
+from tests.conftest import figure_problems
+
+EXTENT = 250.0  # a field of view in, say, mm: the axes must read in that unit, not in pixels
+LENGTH = "length unit"
+INTENSITY = "the data's unit"
 
 
 def frames(n: int = 4, size: int = 16) -> dict[str, np.ndarray]:
@@ -13,21 +21,71 @@ def frames(n: int = 4, size: int = 16) -> dict[str, np.ndarray]:
     return {name: rng.random((n, size, size)).astype(np.float32) for name in ("truth", "fbp", "nct")}
 
 
+def test_strip_is_titled_scaled_in_length_units_and_has_a_colourbar():
+    fig = strip_figure(frames(6), np.linspace(0, 0.5, 6), 4, EXTENT)
+    assert figure_problems(fig, (LENGTH, INTENSITY)) == []
+    images = [ax for ax in fig.axes if ax.images]
+    assert len(images) == 3 * 4
+    assert all(ax.get_xlim() == pytest.approx((-EXTENT / 2, EXTENT / 2)) for ax in images)
+    assert [images[4 * r].get_ylabel() for r in range(3)] == ["truth", "fbp", "nct"]
+
+
+def test_metric_plot_names_its_units_and_its_legend_covers_no_curve():
+    rng = np.random.default_rng(1)
+    truth = np.zeros((8, 16, 16), np.float32)
+    truth[:, 4:12, 4:12] = 0.02  # intensities in 1/mm: MSE ~1e-5
+    scored = {name: frame_metrics(truth + rng.normal(0, s, truth.shape).astype(np.float32), truth, 0.01)
+              for name, s in (("fbp", 0.004), ("nct", 0.001))}
+    fig = metric_figure(np.linspace(0, 0.5, 8), scored)
+    assert figure_problems(fig, ("intensity unit²", "dB", "ms")) == []
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["fbp", "nct"]
+
+
+def test_trace_plot_is_titled_and_its_legend_covers_no_point():
+    trace = [{"stage": stage, "seconds": s, "median_dice": d} for stage, s, d in
+             (("coarse", 1.0, 0.2), ("coarse", 2.0, 0.98), ("fine", 3.0, 0.99), ("fine", 4.0, 0.995))]
+    assert figure_problems(trace_figure(trace, 0.97), ("(s)",)) == []
+
+
+def test_movie_is_scaled_in_length_units_and_has_a_colourbar():
+    fig, _, _ = movie_figure(frames(), np.array([0.0, 0.1, 0.2, 0.3]), EXTENT)
+    assert figure_problems(fig, (LENGTH, INTENSITY)) == []
+
+
+def test_figure_problems_finds_what_an_unexplained_figure_lacks():
+    """The checker itself can fail: a bare image, and a legend drawn over its curve."""
+    from matplotlib.figure import Figure
+
+    bare = Figure()
+    bare.subplots().imshow(np.ones((4, 4)))
+    assert set(figure_problems(bare, (LENGTH,))) == {"no title", "panel 0 has no x label", "panel 0 has no y label",
+                                                     f"no label names the unit {LENGTH!r}",
+                                                     "images without a colourbar"}
+    covered = Figure()
+    ax = covered.subplots()
+    ax.plot(np.linspace(0, 1, 200), np.full(200, 0.5), label="curve")
+    ax.set(title="t", xlabel="x", ylabel="y")
+    ax.legend(loc="center")
+    problems = figure_problems(covered)
+    assert len(problems) == 1 and problems[0].startswith("a legend covers a point of panel 0")
+
+
 def test_movie_time_label_is_clear_of_panel_titles_and_images():
     times = np.array([0.0125, 0.0625, 0.1875, 1.2345])
-    fig, images, label = movie_figure(frames(), times)
+    fig, images, label = movie_figure(frames(), times, EXTENT)
     renderer = fig.canvas.get_renderer()
     assert label.get_text() == "t = 1234 ms"  # laid out for the longest label
     box = label.get_window_extent(renderer)
-    for ax in fig.axes:
+    panels = [ax for ax in fig.axes if ax.images]
+    for ax in panels:
         assert not box.overlaps(ax.title.get_window_extent(renderer)), ax.title.get_text()
         assert not box.overlaps(ax.get_window_extent(renderer))
-    assert [ax.title.get_text() for ax in fig.axes] == ["truth", "fbp", "nct"] and len(images) == 3
+    assert [ax.title.get_text() for ax in panels] == ["truth", "fbp", "nct"] and len(images) == 3
 
 
 def test_movie_has_a_picture_per_frame_at_fixed_size(tmp_path: Path):
     path = tmp_path / "movie.gif"
-    save_movie(path, frames(), np.array([0.0, 0.05, 0.1, 0.15]), fps=8)
+    save_movie(path, frames(), np.array([0.0, 0.05, 0.1, 0.15]), fps=8, extent=EXTENT)
     movie = iio.imread(path, index=None)
     assert movie.shape[0] == 4 and movie.shape[-1] == 3
     assert not np.array_equal(movie[0], movie[1])  # the frames (and the label) change

@@ -1,5 +1,6 @@
 """The plots of a sweep report: Dice and MSE against a swept setting, the TV-weight grid, accuracy
-against wall time, held-out loss against Dice; each built as a Figure, then written as a PNG.
+against wall time, held-out loss against Dice; each built as a Figure (titled, axes labelled with
+units, legends outside the axes so they cover no point), then written as a PNG.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from nct.run.outcome import FINISHED
 
 METHODS = ("fbp", "nct")
 SUMMARY_STATS = (("median_dice", "Dice"), ("median_mse", "MSE"))  # per-job summaries the plots show
+AXIS_LABELS = {"median_dice": "median Dice of a job", "median_mse": "median MSE of a job (intensity unit²)"}
 
 
 @dataclass(frozen=True)
@@ -63,10 +65,19 @@ def log_scale_fits(values: Sequence[float]) -> bool:
     return finite.size > 1 and finite.min() > 0 and finite.max() / finite.min() >= 100
 
 
+def _legend_outside(fig: Figure, title: str | None = None) -> None:
+    """One legend for every labelled curve of ``fig``, in a row below the panels (so it covers none)."""
+    entries = {label: handle for ax in fig.axes for handle, label in zip(*ax.get_legend_handles_labels())}
+    if entries:
+        fig.legend(entries.values(), entries.keys(), loc="outside lower center", ncols=len(entries), title=title,
+                   fontsize=9, title_fontsize=9)
+
+
 def metrics_vs_figure(jobs: Sequence[Job], key: str, label: str) -> Figure:
     """Median Dice and median MSE per job against ``key``, FBP and NCT; several jobs at one setting
     (e.g. seeds): their mean ± sd, as the legend says."""
-    fig = Figure(figsize=(10, 4), layout="constrained")
+    fig = Figure(figsize=(11, 4), layout="constrained")
+    counts = []
     for ax, (stat, name) in zip(fig.subplots(1, 2), SUMMARY_STATS):
         aggs = {method: aggregate(jobs, key, f"{method}.{stat}") for method in METHODS}
         aggs = {method: agg for method, agg in aggs.items() if np.isfinite(agg.mean).any()}
@@ -76,11 +87,11 @@ def metrics_vs_figure(jobs: Sequence[Job], key: str, label: str) -> Figure:
         if stat == "median_mse" and log_scale_fits([v for agg in aggs.values() for v in agg.mean]):
             ax.set_yscale("log")
         ax.set_xlabel(label)
-        ax.set_ylabel(f"median {name} of a job")
+        ax.set_ylabel(AXIS_LABELS[stat])
         ax.grid(alpha=0.3)
-        if aggs:
-            ax.legend(title=spread(np.concatenate([agg.n for agg in aggs.values()])), fontsize=9, title_fontsize=9)
-    fig.suptitle(f"Dice and MSE against {label}")
+        counts += [agg.n for agg in aggs.values()]
+    _legend_outside(fig, spread(np.concatenate(counts)) if counts else None)
+    fig.suptitle(f"Median Dice and MSE of each job against {label}")
     return fig
 
 
@@ -138,7 +149,8 @@ def accuracy_vs_time_figure(jobs: Sequence[Job]) -> Figure:
     ax.set_xlabel("wall time per job (s)")
     ax.set_ylabel("NCT median Dice")
     ax.grid(alpha=0.3)
-    ax.legend()
+    _legend_outside(fig)
+    fig.suptitle("Accuracy against wall time")
     return fig
 
 
@@ -148,12 +160,14 @@ def heldout_vs_dice_figure(jobs: Sequence[Job]) -> Figure:
     ax = fig.subplots()
     done = finished(jobs)
     losses = [j.metric("heldout_loss") for j in done]
-    ax.scatter(losses, [j.metric("nct.median_dice") for j in done])
+    ax.scatter(losses, [j.metric("nct.median_dice") for j in done], label="NCT, one finished job each")
     if log_scale_fits(losses):
         ax.set_xscale("log")
-    ax.set_xlabel("held-out sinogram loss (truth-free; lower is better)")
+    ax.set_xlabel("held-out sinogram loss (relative L1, unitless; truth-free, lower is better)")
     ax.set_ylabel("NCT median Dice")
     ax.grid(alpha=0.3)
+    _legend_outside(fig)
+    fig.suptitle("Is the truth-free score a fair proxy for Dice?")
     return fig
 
 
@@ -165,7 +179,7 @@ def figures(jobs: Sequence[Job]) -> dict[str, Figure]:
     if len(distinct(jobs, TV_SPACE)) > 1 and len(distinct(jobs, TV_TIME)) > 1:
         plots["tv_grid"] = tv_grid_figure(jobs)
     if len(distinct(jobs, F_MAX)) > 1:
-        plots["f_max"] = metrics_vs_figure(jobs, F_MAX, "model.f_max (F_max)")
+        plots["f_max"] = metrics_vs_figure(jobs, F_MAX, "model.f_max, F_max (cycles/rotation)")
     plots["accuracy_vs_time"] = accuracy_vs_time_figure(jobs)
     if sum(math.isfinite(j.metric("heldout_loss")) and j.metric("heldout_loss") > 0 for j in finished(jobs)) > 1:
         plots["heldout_vs_dice"] = heldout_vs_dice_figure(jobs)

@@ -84,7 +84,7 @@ def export(args: argparse.Namespace) -> list[Path]:
     out.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out, frames=frames, sdf=sdf, times=times, extent=np.float64(run.grid.extent))
     if args.gif:
-        files.save_movie(out.with_suffix(".gif"), {"nct": frames}, times, run.fps)
+        files.save_movie(out.with_suffix(".gif"), {"nct": frames}, times, run.fps, run.grid.extent)
     if args.tiff:
         files.save_tiffs(out.parent, {out.stem: frames})
     return written

@@ -1,21 +1,29 @@
-"""Files a run leaves for people and other tools: frames (.npz, .tiff), PNG strips, GIF movies."""
+"""Files a run leaves for people and other tools: frames (.npz, .tiff), PNG strips, GIF movies.
+
+Each picture is built by a function returning its matplotlib Figure (titled, axes labelled with
+units, a colourbar for images, legends outside the axes so they cover no data), then saved.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import imageio.v3 as iio
+import numpy as np
+import tifffile
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.image import AxesImage
+from matplotlib.text import Text
 
-matplotlib.use("Agg")
-import imageio.v3 as iio  # noqa: E402
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import tifffile  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.image import AxesImage  # noqa: E402
-from matplotlib.text import Text  # noqa: E402
+from nct.run.metrics import FrameMetrics
 
-from nct.run.metrics import FrameMetrics  # noqa: E402
+#: Axis and colourbar labels: the data carry no unit names, so lengths are in the unit of the field
+#: of view (``extent``, the sinogram file's length unit) and intensities in the data's own unit.
+X_LABEL, Y_LABEL = "x (length unit of the data)", "y (length unit of the data)"
+INTENSITY_LABEL = "intensity (the data's unit)"
+MSE_LABEL = "MSE (intensity unit²)"
+TIME_LABEL = "frame time (ms)"
 
 
 def save_reconstruction(path: Path, times: np.ndarray, extent: float, frames: dict[str, np.ndarray]) -> None:
@@ -37,38 +45,64 @@ def _display_range(frames: dict[str, np.ndarray]) -> float:
     return float(max(np.percentile(ref, 99.9), 1e-6)) * 1.2
 
 
-def save_strip(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, n_columns: int) -> None:
-    """A grid of images: one row per method, ``n_columns`` frames evenly spread over time."""
+def _save(fig: Figure, path: Path, dpi: int = 100) -> None:
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=dpi)
+
+
+def _image_extent(extent: float) -> tuple[float, float, float, float]:
+    """imshow's (left, right, bottom, top) for a square field of view of side ``extent`` centred on 0;
+    row 0 of a frame is its top (largest y)."""
+    return -extent / 2, extent / 2, -extent / 2, extent / 2
+
+
+def strip_figure(frames: dict[str, np.ndarray], times: np.ndarray, n_columns: int, extent: float) -> Figure:
+    """A grid of images: one row per method (name [F,H,W]), ``n_columns`` frames evenly spread over
+    ``times`` [F] s; axes in the data's length unit over the field of view of side ``extent``, one
+    shared grey scale with its colourbar."""
     idx = np.unique(np.linspace(0, len(times) - 1, min(n_columns, len(times))).round().astype(int))
     vmax = _display_range(frames)
-    fig, axes = plt.subplots(len(frames), len(idx), figsize=(1.6 * len(idx), 1.7 * len(frames)), squeeze=False)
+    fig = Figure(figsize=(1.5 * len(idx) + 2.0, 1.5 * len(frames) + 1.2), layout="constrained")
+    axes = fig.subplots(len(frames), len(idx), squeeze=False, sharex=True, sharey=True)
     for r, (name, f) in enumerate(frames.items()):
         for c, i in enumerate(idx):
             ax = axes[r, c]
-            ax.imshow(f[i], cmap="gray", vmin=0, vmax=vmax)
-            ax.set_xticks([])
-            ax.set_yticks([])
+            image = ax.imshow(f[i], cmap="gray", vmin=0, vmax=vmax, extent=_image_extent(extent))
+            ax.tick_params(labelsize=6)
+            ax.label_outer()
             if r == 0:
-                ax.set_title(f"t={times[i] * 1e3:.0f} ms", fontsize=8)
+                ax.set_title(f"t = {times[i] * 1e3:.0f} ms", fontsize=8)
             if c == 0:
                 ax.set_ylabel(name, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    fig.colorbar(image, ax=axes, label=INTENSITY_LABEL, shrink=0.9)
+    fig.supxlabel(X_LABEL, fontsize=8)
+    fig.supylabel(Y_LABEL, fontsize=8)
+    fig.suptitle(f"{', '.join(frames)}: frames over time (rows: method)", fontsize=9)
+    return fig
 
 
-def movie_figure(frames: dict[str, np.ndarray], times: np.ndarray) -> tuple[Figure, list[AxesImage], Text]:
+def save_strip(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, n_columns: int, extent: float) -> None:
+    """`strip_figure` as a PNG."""
+    _save(strip_figure(frames, times, n_columns, extent), path)
+
+
+def movie_figure(frames: dict[str, np.ndarray], times: np.ndarray, extent: float
+                 ) -> tuple[Figure, list[AxesImage], Text]:
     """The movie's figure, laid out once: a panel per method (truth | FBP | NCT) labelled with its name,
-    and above them a time label sized for the longest time. Returns the figure, the panels' images
-    and the time label, for `save_movie` to update per frame."""
+    axes in the data's length unit, one colourbar, and above them a time label sized for the longest
+    time. Returns the figure, the panels' images and the time label, for `save_movie` to update per frame."""
     vmax = _display_range(frames)
-    fig, axes = plt.subplots(1, len(frames), figsize=(2.4 * len(frames), 2.9), squeeze=False, layout="constrained")
+    fig = Figure(figsize=(2.4 * len(frames) + 1.0, 3.2), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, len(frames), squeeze=False, sharey=True)[0]
     images = []
-    for ax, (name, f) in zip(axes[0], frames.items()):
-        images.append(ax.imshow(f[0], cmap="gray", vmin=0, vmax=vmax))
+    for ax, (name, f) in zip(axes, frames.items()):
+        images.append(ax.imshow(f[0], cmap="gray", vmin=0, vmax=vmax, extent=_image_extent(extent)))
         ax.set_title(name, fontsize=10)
-        ax.set_xticks([])
-        ax.set_yticks([])
+        ax.tick_params(labelsize=6)
+    fig.supxlabel(X_LABEL, fontsize=7)
+    fig.supylabel(Y_LABEL, fontsize=7)
+    fig.colorbar(images[0], ax=axes, label=INTENSITY_LABEL, shrink=0.9)
     label = fig.suptitle(_time_label(float(np.max(times))), fontsize=9)
     fig.canvas.draw()  # constrained layout makes room for the label and the panel titles ...
     fig.set_layout_engine("none")  # ... once: the panels stay put from frame to frame
@@ -79,9 +113,9 @@ def _time_label(t: float) -> str:
     return f"t = {t * 1e3:.0f} ms"
 
 
-def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps: float) -> None:
+def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps: float, extent: float) -> None:
     """An animated GIF of the methods side by side (truth | FBP | NCT), labelled, looping."""
-    fig, images, label = movie_figure(frames, times)
+    fig, images, label = movie_figure(frames, times, extent)
     pictures = []
     for i, t in enumerate(times):
         for im, f in zip(images, frames.values()):
@@ -89,34 +123,51 @@ def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps
         label.set_text(_time_label(t))
         fig.canvas.draw()
         pictures.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
-    plt.close(fig)
     iio.imwrite(path, np.stack(pictures), extension=".gif", duration=1000.0 / fps, loop=0)
 
 
+#: The panels of `metric_figure`: FrameMetrics field, axis label, log scale.
+METRIC_PANELS = (("dice", "Dice (1 = masks equal)", False), ("ssim", "SSIM (1 = images equal)", False),
+                 ("mse", MSE_LABEL, True), ("psnr", "PSNR (dB, over the truth's range)", False))
+
+
+def metric_figure(times: np.ndarray, metrics: dict[str, FrameMetrics]) -> Figure:
+    """Each method's scores against the truth per frame (``times`` [F] s): Dice, SSIM, MSE, PSNR;
+    one legend outside the panels."""
+    fig = Figure(figsize=(9.5, 5.5), layout="constrained")
+    for ax, (field, label, log) in zip(fig.subplots(2, 2).ravel(), METRIC_PANELS):
+        for name, m in metrics.items():
+            ax.plot(times * 1e3, getattr(m, field), marker=".", label=name)
+        ax.set(xlabel=TIME_LABEL, ylabel=label, yscale="log" if log else "linear")
+        if field == "dice":
+            ax.set_ylim(0, 1.02)
+        ax.grid(alpha=0.3)
+    fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside right upper", title="method")
+    fig.suptitle("Each frame against the truth (Dice at half the faintest true intensity)", fontsize=10)
+    return fig
+
+
 def save_metric_plot(path: Path, times: np.ndarray, metrics: dict[str, FrameMetrics]) -> None:
-    """Dice and MSE of every method against time."""
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.2))
-    for name, m in metrics.items():
-        a1.plot(times * 1e3, m.dice, label=name)
-        a2.plot(times * 1e3, m.mse, label=name)
-    a1.set(xlabel="time (ms)", ylabel="Dice", ylim=(0, 1.02))
-    a2.set(xlabel="time (ms)", ylabel="MSE", yscale="log")
-    a1.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    """`metric_figure` as a PNG."""
+    _save(metric_figure(times, metrics), path)
 
 
-def save_trace_plot(path: Path, trace: list[dict], fbp_dice: float) -> None:
+def trace_figure(trace: list[dict], fbp_dice: float) -> Figure:
     """The run's Dice-against-time curve: median Dice of each snapshot (``trace.csv`` rows) against
-    seconds into the reconstruction, one colour per stage, FBP's median Dice as a line."""
-    fig, ax = plt.subplots(figsize=(5.5, 3.4))
+    seconds into the reconstruction, one colour per stage, FBP's median Dice as a line; legend outside."""
+    fig = Figure(figsize=(6.5, 3.4), layout="constrained")
+    ax = fig.subplots()
     for stage in dict.fromkeys(r["stage"] for r in trace):
         rows = [r for r in trace if r["stage"] == stage]
         ax.plot([r["seconds"] for r in rows], [r["median_dice"] for r in rows], marker=".", label=stage)
     ax.axhline(fbp_dice, color="grey", linestyle="--", label="FBP")
-    ax.set(xlabel="seconds into the reconstruction", ylabel="median Dice", ylim=(0, 1.02))
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    ax.set(xlabel="time into the reconstruction (s)", ylabel="median Dice over frames", ylim=(0, 1.02))
+    ax.grid(alpha=0.3)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside right upper", title="stage", fontsize=8)
+    fig.suptitle("NeuralCT's median Dice during the fit", fontsize=10)
+    return fig
+
+
+def save_trace_plot(path: Path, trace: list[dict], fbp_dice: float) -> None:
+    """`trace_figure` as a PNG."""
+    _save(trace_figure(trace, fbp_dice), path)

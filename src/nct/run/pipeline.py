@@ -169,7 +169,8 @@ def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray]
     if conf.export.tiff:
         export.save_tiffs(out_dir / "frames", shown)
     if conf.export.png:
-        export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames)
+        export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames,
+                          acq.grid.extent)
         if scored:
             export.save_metric_plot(out_dir / "metrics.png", acq.frame_times, scored)
         if "trace" in result:
@@ -177,7 +178,7 @@ def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray]
     if "trace" in result:
         write_csv(result["trace"], out_dir / "trace.csv")
     if conf.export.gif:
-        export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps)
+        export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps, acq.grid.extent)
 
 
 def _shown(acq: Acquisition, frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
