@@ -26,6 +26,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 from omegaconf import OmegaConf
 
 from nct.acquisition.scanner import ImageGrid, Scanner
@@ -94,9 +95,9 @@ def measure(deg: float, rotations: float, noise_i0: float | None) -> dict[str, o
             "seconds": seconds}
 
 
-def ambiguity_figure(path: Path) -> float:
+def ambiguity_figure() -> tuple[Figure, float]:
     """Two trajectories, one sinogram: the circle at 100°/rot and c(t) + f(t)·d(θ(t)), both discs
-    projected in closed form (`EllipsePhantom.project`); returns the largest sinogram difference."""
+    projected in closed form (`EllipsePhantom.project`); and the largest sinogram difference."""
     conf, scanner, grid = setup(100.0, 1.0)
     true = build_phantom(conf, scanner.rotation_time)
 
@@ -132,10 +133,7 @@ def ambiguity_figure(path: Path) -> float:
     right.set(xlabel="detector coordinate u (field of view)", ylabel="gantry angle θ (degrees)",
               title=f"one sinogram: max |difference| = {difference:.1e}\n(peak value {sinos[0].max():.2f})")
     fig.suptitle("Motion along the rays of the view taken at that instant is invisible: 100°/rot, one rotation")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return difference
+    return fig, difference
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -151,7 +149,10 @@ def main(argv: list[str] | None = None) -> None:
             rows.append(measure(deg, rotations, args.noise_i0))
             print(", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in rows[-1].items()),
                   flush=True)
-    difference = ambiguity_figure(FIGURE)
+    fig, difference = ambiguity_figure()
+    FIGURE.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURE, dpi=110)
+    plt.close(fig)
     header = ["°/rot", "rotations", "spread (px, truth-free)", "verdict", "error max (px)", "error RMS (px)",
               "ℓ (rot)", "Legendre LSQ error max (px)", "s"]
     table = markdown_table(header, [[r["deg_per_rotation"], r["rotations"], r["spread_px"],
