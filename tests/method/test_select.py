@@ -72,8 +72,9 @@ def test_no_finished_candidate_is_an_error():
         Tournament(10, 100, CONF).verdict()
 
 
-@pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "select.rungs"), ({"first_budget": 0}, "first_budget"),
-                                         ({"tolerance": 1.0}, "select.tolerance")])
+@pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "motion.rungs"), ({"rungs": ["wobbly"]}, "motion.rungs"),
+                                         ({"rungs": ["free", "free"]}, "motion.rungs"),
+                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": 1.0}, "motion.tolerance")])
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)

@@ -142,10 +142,6 @@ class OptimConf:
     upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
     the field costs (image / coarse)^2 less per step); the refinement uses the image's own
     lattice. null, or not below the image size: the image's lattice throughout.
-    retries: a SinogramFit whose misfit (relative L1 at the final band, on the held-out views or
-    up to 64 fitted ones) ends above where it started has lost its way, e.g. an object dropped
-    out of the band where no gradient reaches it; it is rerun from its InitFit at half the rates,
-    up to this many times, and the best attempt kept.
     """
 
     init_steps: int = 300
@@ -164,15 +160,13 @@ class OptimConf:
     intensity_lr: float = 1e-2
     divergence_factor: float = 20.0
     coarse_size: Optional[int] = 64
-    retries: int = 1
 
     def __post_init__(self) -> None:
         require(self.coarse_size is None or self.coarse_size >= 8, "optim.coarse_size", ">= 8 or null",
                 self.coarse_size)
         for key in ("lr_decay_every", "batch_views"):
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
-        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss",
-                    "retries"):
+        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):
             require(getattr(self, key) >= 0, f"optim.{key}", ">= 0", getattr(self, key))
         for key in ("lr", "refine_lr", "intensity_lr"):
             require(getattr(self, key) > 0, f"optim.{key}", "> 0", getattr(self, key))
@@ -216,12 +210,9 @@ class InitConf:
     (Algorithm 1, and multi-level Otsu on the foreground where it cannot separate K levels),
     "gmm" (Algorithm 1 only) or "otsu" (segment.py). levels: "sinogram" (every candidate choice
     of levels is judged by how well its masks explain the fitted views, which also give a(k):
-    levels.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, InitFit
-    runs from each of the judge's this many best candidates (method.candidate_starts; 1: the best
-    judged only); the sinogram fit continues the one whose field misfits the held-out views least,
-    the leader. race_at, race_gain: each runner-up's sinogram fit races the leader's (race.py): from
-    this share of its steps it stops at the first held-out check where its loss is above race_gain
-    x the leader's, and one that ends lower than the leader is kept (race_at null: the leader only).
+    judge.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, the judge's
+    this many best segmentations each start a candidate of the tournament (initialise.find_starts;
+    1: the best judged only).
     """
 
     frames_per_rotation: int = 60
@@ -230,8 +221,6 @@ class InitConf:
     route: str = "auto"
     levels: str = "sinogram"
     starts: int = 2
-    race_at: Optional[float] = 0.2
-    race_gain: float = 0.7
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
@@ -240,8 +229,6 @@ class InitConf:
         require(self.kappa >= 0, "init.kappa", ">= 0", self.kappa)
         require(0 < self.gmm_share <= 1, "init.gmm_share", "in (0, 1]", self.gmm_share)
         require(self.starts >= 1, "init.starts", ">= 1", self.starts)
-        require(self.race_at is None or 0 < self.race_at < 1, "init.race_at", "in (0, 1) or null", self.race_at)
-        require(self.race_gain > 0, "init.race_gain", "> 0", self.race_gain)
 
 
 @dataclass

@@ -9,7 +9,7 @@ Two families hold the spatial parts: SIRENs (the paper's) and explicit multi-res
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import torch
@@ -52,8 +52,7 @@ class Coefficients:
 
 
 class Field(nn.Module):
-    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs;
-    an object made static (`set_static`) keeps the second term at one time.
+    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs.
 
     x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
     w_i ~ N(0, f_max) are drawn once from ``generator``. The model also owns each object's
@@ -69,8 +68,6 @@ class Field(nn.Module):
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.register_buffer("moving", torch.ones(n_objects))  # 0: the object is held at static_time
-        self.register_buffer("static_time", torch.zeros(()))
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -88,13 +85,6 @@ class Field(nn.Module):
     def set_intensities(self, values: Tensor) -> None:
         """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
         self.log_intensities.copy_(values.to(self.log_intensities).log())
-
-    @torch.no_grad()
-    def set_static(self, static: Tensor, at: float) -> None:
-        """Hold the objects where ``static`` [K] bool is set at their shape at time ``at``
-        (rotations) from now on: g_k(x, t) = g_k(x, at), the field unchanged at that time."""
-        self.moving.copy_((~static.to(torch.bool)).to(self.moving))
-        self.static_time.fill_(at)
 
     def shape_parameters(self) -> list[nn.Parameter]:
         """The parameters of g (all but a(k))."""
@@ -130,24 +120,20 @@ class Field(nn.Module):
         static = c.static.expand(t.shape[0], -1, -1)
         if c.temporal is None:
             return static
-        # Per object: the basis at t, or at static_time for an object made static: [T, 2M, K].
-        held = self.basis(self.static_time[None])[0][None, :, None] * (1 - self.moving)
-        weights = self.basis(t)[:, :, None] * self.moving + held
-        return static + torch.einsum("tmk,mkp->tkp", weights, c.temporal)
+        return static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal)
 
     def sdf_rate(self, c: Coefficients, t: Tensor) -> Tensor:
         """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model."""
         if c.temporal is None:
             return c.static.new_zeros(t.shape[0], *c.static.shape)
-        return torch.einsum("tmk,mkp->tkp", self.basis_rate(t)[:, :, None] * self.moving, c.temporal)
+        return torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
         return {
             "n_params": sum(p.numel() for p in self.shape_parameters()),
             "n_terms": self.n_terms,
-            "static": self.temporal is None or not bool(self.moving.any()),
-            "static_objects": [k for k in range(self.n_objects) if self.temporal is None or not self.moving[k]],
+            "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
         }
 
@@ -248,8 +234,13 @@ def lattice_interpolation(size: int, cells: int, device: torch.device | None = N
     return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
 
 
-def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:
-    """The field of ``conf.family`` for ``n_objects`` objects."""
+def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, motion: str = "free") -> Field:
+    """The field of ``conf.family`` holding ``motion`` (a rung of the ladder: static has no temporal
+    terms, free is the paper's g_E + g_V) for ``n_objects`` objects."""
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
+    if motion == "static":
+        conf = replace(conf, n_terms=0)
+    elif motion != "free":
+        raise ValueError(f"motion {motion!r} has no field yet")
     return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)

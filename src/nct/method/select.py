@@ -18,13 +18,14 @@ from dataclasses import dataclass, field
 from nct.errors import require
 
 HeldoutHistory = list[tuple[int, float]]  # (step, held-out misfit) at each held-out check of a fit
+RUNGS = ("static", "rigid", "affine", "free")  # the motion ladder, simplest first
 
 
 @dataclass
 class SelectionConf:
-    """The tournament's settings (config group ``select``).
+    """The tournament's settings (config group ``motion``: its options auto, static, rigid, affine, free).
 
-    rungs: the motion models tried, simplest first (static, rigid, affine, free), or one of them.
+    rungs: the motion models tried (RUNGS), or one of them (no tournament between rungs then).
     first_budget: share of a fit's steps at the schedule's first milestone (then twice, four times ...).
     tolerance: relative held-out misfit within which a simpler candidate beats a better one.
     """
@@ -34,9 +35,11 @@ class SelectionConf:
     tolerance: float = 0.05
 
     def __post_init__(self) -> None:
-        require(len(self.rungs) >= 1, "select.rungs", "a non-empty list", self.rungs)
-        require(0 < self.first_budget <= 1, "select.first_budget", "in (0, 1]", self.first_budget)
-        require(0 <= self.tolerance < 1, "select.tolerance", "in [0, 1)", self.tolerance)
+        require(len(self.rungs) >= 1 and all(r in RUNGS for r in self.rungs), "motion.rungs",
+                f"a non-empty list of {', '.join(RUNGS)}", self.rungs)
+        require(len(set(self.rungs)) == len(self.rungs), "motion.rungs", "without repeats", self.rungs)
+        require(0 < self.first_budget <= 1, "motion.first_budget", "in (0, 1]", self.first_budget)
+        require(0 <= self.tolerance < 1, "motion.tolerance", "in [0, 1)", self.tolerance)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from nct.errors import DivergenceError, InputError
 from nct.method.conf import LOGGERS, LossConf, OptimConf, RenderConf, TrainerConf
 from nct.method.fields import Field, upsample
 from nct.method.progress import StageBar, StageLog, log_stage, show_bar
-from nct.method.race import HeldoutHistory
+from nct.method.select import HeldoutHistory
 from nct.method.render import intensity, project_frames
 from nct.physics.data_term import misfit
 
@@ -287,7 +287,7 @@ class MinLossStop(Callback):
 
 class HeldoutStop(Callback):
     """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
-    [(step, loss)] so far (a race of one fit against another's losses at the same steps)."""
+    [(step, loss)] so far (the tournament's rule, select.py)."""
 
     def __init__(self, stops: Callable[[HeldoutHistory], bool]) -> None:
         self.stops = stops
