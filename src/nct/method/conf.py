@@ -25,12 +25,18 @@ class ModelConf:
     """The neural SDF field (config group ``model``).
 
     name: the group option. family: "siren" (SIREN static net + SIREN coefficient net) or "grid"
-    (explicit grids, see ``GridField``).
+    (explicit grids, see ``GridField``); for the rigid and affine rungs, the template's (motion.py).
+    The rung itself is chosen per run by the config group ``motion`` (select.py).
+    pose_terms_per_rotation: rigid, affine: Legendre polynomials over the scan per rotation of it
+        (at least 2) in each pose parameter's series in time: few, so the poses stay smooth and
+        leave little room for the motion along the rays that no view sees (motion.py).
     width, depth: hidden width and number of hidden layers of the static net g_E (siren).
     temporal_width, temporal_depth: the same for the coefficient net of g_V (siren).
     resolution: cells per side of the finest static grid (grid); levels: grids per part, each
     half the resolution of the one before, summed (grid). temporal_resolution: cells per side of
-    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse.
+    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse. A moved
+    template spans twice the field of view: on grids of twice these cells per side (grid), or a
+    SIREN rendered on resolution x resolution points (siren; motion.py).
     n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
     f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
         rotation (time is measured in rotations from the first view). Keep it well below 1: a
@@ -42,6 +48,7 @@ class ModelConf:
 
     name: str = "siren"
     family: str = "siren"
+    pose_terms_per_rotation: float = 4.0
     width: int = 64
     depth: int = 3
     temporal_width: int = 64
@@ -55,6 +62,7 @@ class ModelConf:
 
     def __post_init__(self) -> None:
         require(self.family in FAMILIES, "model.family", f"one of {FAMILIES}", self.family)
+        require(self.pose_terms_per_rotation > 0, "model.pose_terms_per_rotation", "> 0", self.pose_terms_per_rotation)
         for key in ("width", "depth", "temporal_width", "temporal_depth", "levels"):
             require(getattr(self, key) >= 1, f"model.{key}", ">= 1", getattr(self, key))
         require(self.n_terms >= 0, "model.n_terms", ">= 0", self.n_terms)

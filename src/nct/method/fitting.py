@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from nct.method.conf import OptimConf, RenderConf, TrainerConf
-from nct.method.fields import Field
+from nct.method.fields import SpaceTimeField
 from nct.method.initialise import Start
 from nct.method.prepare import Problem
 from nct.method.select import HeldoutHistory
@@ -61,12 +61,14 @@ def streams(seed: int, name: str) -> tuple[np.random.Generator, int]:
     return np.random.default_rng([seed, key]), int(np.random.default_rng([seed, key, 1]).integers(2**31 - 1))
 
 
-def init_fit(prob: Problem, session: Session, net: Field, name: str, start: Start, steps: int, optim: OptimConf,
+def init_fit(prob: Problem, session: Session, net: SpaceTimeField, name: str, start: Start, steps: int, optim: OptimConf,
              render: RenderConf, rng: np.random.Generator, lattice: int | None = None) -> float:
     """InitFit ``net`` to ``start``'s SDF frames for ``steps`` (stage ``<name>_init``) on a ``lattice``^2
     lattice (None: the grid's); returns the field's misfit on the check views after it (``render``'s final band)."""
     if start.intensities is not None:
         net.set_intensities(torch.tensor(start.intensities, dtype=torch.float32))
+    if start.seen is not None:
+        net.start_motion(start.seen)
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(start.targets), prob.init_times, lattice)
     record = run_stage(
         init, IndexDataModule(np.arange(prob.init_times.shape[0]), optim.batch_views, steps, _seed(rng)),
@@ -78,7 +80,7 @@ def init_fit(prob: Problem, session: Session, net: Field, name: str, start: Star
     return misfit
 
 
-def sinogram_fit(prob: Problem, session: Session, net: Field, name: str, steps: int, optim: OptimConf,
+def sinogram_fit(prob: Problem, session: Session, net: SpaceTimeField, name: str, steps: int, optim: OptimConf,
                  render: RenderConf, rng: np.random.Generator, lattice: int | None = None,
                  stop: Callable[[HeldoutHistory], bool] | None = None) -> Fitted:
     """SinogramFit ``net`` to the fitted views for ``steps`` (stage ``<name>_fit``); it ends after a

@@ -15,6 +15,7 @@ import torch
 
 from nct.method.conf import InitConf
 from nct.method.judge import sinogram_judge
+from nct.method.motion import Sightings, mask_sightings
 from nct.method.prepare import Problem
 from nct.method.sdf import masks_to_sdf
 from nct.method.segment import Segmentation, segmentations
@@ -23,12 +24,14 @@ from nct.method.segment import Segmentation, segmentations
 @dataclass(frozen=True)
 class Start:
     """Where a fit may start: InitFit's SDF ``targets`` [F, K, H, W] (method units), a(k)
-    ``intensities`` [K] (None: the field's own) and the ``segmentation`` they came from (None: a
-    refinement's own frames)."""
+    ``intensities`` [K] (None: the field's own), the ``segmentation`` they came from (None: a
+    refinement's own frames) and where its objects were ``seen`` (a moved template's first poses;
+    None: the field's own)."""
 
     targets: np.ndarray
     intensities: np.ndarray | None = None
     segmentation: Segmentation | None = None
+    seen: Sightings | None = None
 
 
 def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator) -> list[Start]:
@@ -43,5 +46,5 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
                                views.geometry, prob.grid.extent)
     ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
     chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
-    return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s)
-            for s in chosen]
+    return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
+                  mask_sightings(s.masks, prob.init_times)) for s in chosen]

@@ -35,6 +35,11 @@ def rotations_since_start(sino: Sinogram) -> Clock:
     return lambda t: torch.as_tensor((np.asarray(t, dtype=np.float64) - t0) * turns_per_s, dtype=torch.float32)
 
 
+def rotations_spanned(sino: Sinogram) -> float:
+    """Gantry rotations from the first view to the last."""
+    return float(rotations_since_start(sino)(sino.times).max())
+
+
 def split_views(n_views: int, every: int, run: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the fitted and the held-out views: runs of ``run`` consecutive views, every
     ``every``-th run held out (the middle one of each ``every`` runs)."""
@@ -74,6 +79,11 @@ class Problem:
     held_views: np.ndarray
     units: Units
     clock: Clock
+
+    @property
+    def span(self) -> float:
+        """Gantry rotations from the first view to the last."""
+        return float(self.views.times.max())
 
     def check_views(self, most: int = 64) -> np.ndarray:
         """The views that score a fit: the held-out ones, or up to ``most`` fitted ones when none is held out."""

@@ -18,8 +18,15 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
-from nct.method.conf import HeldoutConf, InitConf, LossConf, OptimConf, RenderConf, TrainerConf
-from nct.method.fields import Field, ModelConf, build_field
+from nct.method.conf import (
+    HeldoutConf,
+    InitConf,
+    LossConf,
+    OptimConf,
+    RenderConf,
+    TrainerConf,
+)
+from nct.method.fields import ModelConf, SpaceTimeField, build_field
 from nct.method.fitting import Fitted, Session, at_rate, init_fit, sinogram_fit, streams
 from nct.method.initialise import Start, find_starts
 from nct.method.prepare import Problem, heldout_standard_error, prepare
@@ -156,18 +163,19 @@ def reconstruct(
 
 def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[Start], n_objects: int, seed: int,
                 motion: SelectionConf, optim: OptimConf, render: RenderConf,
-                ) -> tuple[Verdict, dict[str, Fitted], dict[str, Field]]:
+                ) -> tuple[Verdict, dict[str, Fitted], dict[str, SpaceTimeField]]:
     """Fit every candidate and choose one (select.py). All InitFits run first; the sinogram fits then run
     from the best-started candidate on, so that the later ones race the best histories. A fit whose
     misfit ends above where it started enters a restart at ``RESTART_RATE`` of its rates."""
-    nets: dict[str, Field] = {}
+    nets: dict[str, SpaceTimeField] = {}
     started: dict[str, tuple[float, dict, np.random.Generator]] = {}
     pool = candidates(motion.rungs, starts)
     for cand in pool:
         rng, torch_seed = streams(seed, cand.name)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
-            nets[cand.name] = net = build_field(model, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung)
+            nets[cand.name] = net = build_field(model, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
+                                                  prob.span)
             misfit = init_fit(prob, session, net, cand.name, starts[cand.start], optim.init_steps, optim, render, rng,
                               optim.coarse_size)
         started[cand.name] = misfit, copy.deepcopy(net.state_dict()), rng

@@ -22,9 +22,9 @@ from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import InputError
 from nct.method.conf import ModelConf, OptimConf, RenderConf
-from nct.method.fields import Field, build_field
+from nct.method.fields import SpaceTimeField, build_field
 from nct.method.normalise import Units
-from nct.method.prepare import rotations_since_start
+from nct.method.prepare import rotations_since_start, rotations_spanned
 from nct.method.reconstruct import field_frames
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
@@ -40,7 +40,7 @@ class FittedRun:
     run's occupancy settings; fps: the run's movie frame rate; checkpoint: the file loaded.
     """
 
-    field: Field
+    field: SpaceTimeField
     units: Units
     grid: ImageGrid
     clock: Callable[[np.ndarray], torch.Tensor]
@@ -104,14 +104,15 @@ def load_run(run_dir: Path) -> FittedRun:
     path = _checkpoint(run_dir, metrics["stages"], metrics["selection"]["winner"])
     # The winner's own construction (method.reconstruct); every tensor, the frequencies ``omega``
     # included, is then restored from the checkpoint.
-    net = build_field(model, len(metrics["intensities"]), torch.Generator(), metrics["model"]["motion"])
+    sino = load_sinogram(run_dir / "sinogram.npz")
+    net = build_field(model, len(metrics["intensities"]), torch.Generator(), metrics["model"]["motion"],
+                      rotations_spanned(sino))
     weights = torch.load(path, map_location="cpu", weights_only=True)["state_dict"]
     net.load_state_dict({k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")})
     net.eval()
     units = Units(metrics["init"]["length_unit"], metrics["init"]["intensity_unit"])
     with np.load(run_dir / "reconstruction.npz") as rec:
         grid = ImageGrid(int(rec["nct"].shape[-1]), float(rec["extent"]))
-    sino = load_sinogram(run_dir / "sinogram.npz")
     return FittedRun(net, units, grid, rotations_since_start(sino), acquisition_span(sino.times),
                      _typed(RenderConf, cfg.render), float(cfg.export.fps), path)
 

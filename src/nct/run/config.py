@@ -21,7 +21,6 @@ from omegaconf.errors import OmegaConfBaseException
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.errors import InputError, require
-from nct.method.select import SelectionConf
 from nct.method.conf import (
     LOGGERS,
     HeldoutConf,
@@ -32,6 +31,7 @@ from nct.method.conf import (
     RenderConf,
     TrainerConf,
 )
+from nct.method.select import SelectionConf
 from nct.physics.conf import FBPConf
 from nct.scenes.phantoms import (
     CircleConf,
