@@ -13,8 +13,6 @@ import logging
 import time
 from dataclasses import dataclass
 
-from threadpoolctl import threadpool_limits
-
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
 from nct.method.trajectory import centroid_projections, determinacy, fit_trajectory
@@ -41,15 +39,12 @@ def motion_determinacy(sino: Sinogram, grid: ImageGrid) -> MotionDeterminacy | N
     """The determinacy of the motion in ``sino`` on ``grid``'s pixels; None (logged) when the views
     give no trajectory (fewer than 3 with mass, or angles or times that do not advance)."""
     started = time.perf_counter()
-    # One BLAS thread: the products are at most a few hundred wide, and threads sharing busy cores
-    # made the fit 100x slower (0.34 s -> 40-80 s on the default circle, same verdicts).
-    with threadpool_limits(1):
-        try:
-            trajectory = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
-        except ValueError as err:
-            log.info("motion determinacy not measured: %s", err)
-            return None
-        verdict = determinacy(trajectory, sino.times, grid.pixel_size)
+    try:
+        trajectory = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
+    except ValueError as err:
+        log.info("motion determinacy not measured: %s", err)
+        return None
+    verdict = determinacy(trajectory, sino.times, grid.pixel_size)
     return MotionDeterminacy(verdict.value_px, verdict.threshold_px, verdict.determined, trajectory.length_scale,
                              trajectory.residual / grid.pixel_size, time.perf_counter() - started)
 
