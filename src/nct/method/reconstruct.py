@@ -44,18 +44,15 @@ from nct.method.race import HeldoutHistory, lost, race
 from nct.method.render import intensity
 from nct.method.sdf import binarise, masks_to_sdf
 from nct.method.segment import Segmentation, segmentations
-from nct.method.stages import (
+from nct.method.stages import FieldStage, InitFit, SinogramFit, Views
+from nct.method.trainer import (
     LOGGERS,
-    FieldStage,
     HeldoutStop,
     IndexDataModule,
-    InitFit,
     MinLossStop,
     RunClock,
-    SinogramFit,
     Snapshot,
     SnapshotLog,
-    Views,
     run_stage,
     snapshot,
 )
