@@ -2,6 +2,7 @@
 
 import json
 import logging
+import os
 import shutil
 import subprocess
 import sys
@@ -155,7 +156,8 @@ def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
 def test_method_failure_is_one_line_exit_1_and_recorded(tmp_path):
     """An expected method failure (here a fit driven to diverge): one line, exit 1, reason in status.json."""
     proc = subprocess.run([sys.executable, "-m", "nct.cli.main", "debug=tiny", "optim.lr=1000", "optim.warmup_steps=0",
-                           "logger=none", f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120)
+                           "logger=none", f"hydra.run.dir={tmp_path}/run"], capture_output=True, text=True, timeout=120,
+                          env=os.environ | {"OMP_NUM_THREADS": "1"})  # one thread: faster for a tiny fit
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert proc.stderr.strip().startswith("nct: error: stage") and "\n" not in proc.stderr.strip()
     status = read(tmp_path / "run" / "status.json")
