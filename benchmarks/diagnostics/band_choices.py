@@ -24,7 +24,7 @@ from pathlib import Path
 from nct.acquisition.io import load_sinogram
 from nct.method.capacity import CapacityConf
 from nct.method.conf import ModelConf
-from nct.method.reconstruct import rotations_spanned
+from nct.method.prepare import rotations_spanned
 
 
 def heldout(call: Path, scene: str) -> float | None:

@@ -26,7 +26,7 @@ import nct.method.reconstruct
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.method import segment as seg
-from nct.method.reconstruct import candidate_starts
+from nct.method.passes import candidate_starts
 from nct.run.config import validate
 from nct.run.pipeline import acquire, reconstruct_all
 

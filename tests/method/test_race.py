@@ -14,7 +14,8 @@ import pytest
 import nct.method.reconstruct
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.method.conf import LossConf
-from nct.method.reconstruct import candidate_starts, reconstruct
+from nct.method.passes import candidate_starts
+from nct.method.reconstruct import reconstruct
 from nct.method.segment import Segmentation, segmentations
 from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
 from nct.scenes.simulate import simulate

@@ -24,12 +24,8 @@ from nct.method.conf import (
     TrainerConf,
 )
 from nct.method.fields import ModelConf
-from nct.method.reconstruct import (
-    heldout_standard_error,
-    reconstruct,
-    rotations_since_start,
-    split_views,
-)
+from nct.method.prepare import heldout_standard_error, rotations_since_start, split_views
+from nct.method.reconstruct import reconstruct
 from nct.method.render import project_frames
 from nct.physics.projector import fbp_frames
 from nct.run.metrics import frame_metrics

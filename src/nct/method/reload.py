@@ -25,7 +25,8 @@ from nct.method.capacity import band_kept
 from nct.method.conf import ModelConf, OptimConf, RenderConf
 from nct.method.fields import Field, build_field
 from nct.method.normalise import Units
-from nct.method.reconstruct import field_frames, pass_prefix, rotations_since_start
+from nct.method.prepare import rotations_since_start
+from nct.method.reconstruct import field_frames, pass_prefix
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
@@ -76,7 +77,7 @@ def _read_json(path: Path) -> dict:
 def _checkpoint(run_dir: Path, stages: dict, n_terms: int, auto: bool, band: bool) -> Path:
     """The last saved stage checkpoint of the chosen field: the refinement's if any, else the kept
     first pass's (``method.pass_prefix``: the chosen rung's with ``capacity.auto``, the wider
-    band's where it was kept); a fit attempt that was not kept (``method._fit_pass``) is skipped."""
+    band's where it was kept); a fit attempt that was not kept (``passes.fit_pass``) is skipped."""
     prefix = pass_prefix(n_terms, auto, band)
     ours = [s for s, record in stages.items()
             if s.startswith(("refine_", prefix + "init", prefix + "fit")) and record.get("kept", True)]
