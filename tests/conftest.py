@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
@@ -41,6 +42,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.figure import Figure
 from omegaconf import DictConfig
+from threadpoolctl import threadpool_limits
 
 from nct.acquisition.geometry import FanGeometry, ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
@@ -84,10 +86,14 @@ def compose_config(overrides: list[str], with_hydra: bool = False) -> DictConfig
 
 
 @pytest.fixture(autouse=True, scope="session")
-def one_thread() -> None:
-    """One torch thread for the whole suite: a fit's numbers depend on the thread count, and
-    in-process CLI runs would otherwise change it from one test to the next."""
+def one_thread() -> Iterator[None]:
+    """One torch thread and one BLAS thread for the whole suite: a fit's numbers depend on the thread
+    count, and in-process CLI runs would otherwise change it from one test to the next; BLAS threads
+    on the suite's small matrices only wait for each other, and on a busy machine a 158² Cholesky
+    took 26 ms with two against 0.3 ms with one (method/trajectory.py's evidence search: 14 s, 0.15 s)."""
     torch.set_num_threads(1)
+    with threadpool_limits(1):
+        yield
 
 
 DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])

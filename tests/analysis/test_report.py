@@ -128,7 +128,7 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
 
 
 def test_summary_lists_the_warnings_of_suspect_fits(displacement_sweep: Path):
-    assert "## Warnings\n\nNone: no fit the held-out views call suspect." in write_report(displacement_sweep).summary.read_text()
+    assert "## Warnings\n\nNone: no run warned." in write_report(displacement_sweep).summary.read_text()
     status = displacement_sweep / "4" / "status.json"
     status.write_text(json.dumps(json.loads(status.read_text()) | {"warnings": ["suspect fit: its held-out misfit"]}))
     text = write_report(displacement_sweep).summary.read_text()

@@ -33,7 +33,7 @@ SWEEPS = Path(str(files(CONFIG_MODULE))) / "sweep"
 PAPER_WEIGHTS = [0, 0.05, 0.1, 0.15, 0.3, 0.5, 0.9, 1.5, 3, 5, 10]
 PAPER_DISPLACEMENTS = [0, 1, 5, 10, 20, 40, 70, 100, 120, 150, 200]
 NCT = Path(sys.executable).with_name("nct")
-TINY = ["debug=tiny", "logger=none", "export.png=false"]
+TINY = ["debug=tiny", "logger=none", "export.png=false", "export.gif=false"]
 
 
 def compose_hydra(*overrides: str) -> DictConfig:
@@ -207,7 +207,9 @@ def test_joblib_multirun_then_report(tmp_path: Path):
     assert "2 jobs: 2 ok." in (sweep / "report" / "summary.md").read_text()
 
 
-def test_failed_jobs_are_reported_and_resume_reruns_only_them(tmp_path: Path):
+def test_failed_jobs_are_reported_and_resume_reruns_only_them(tmp_path: Path, nct):
+    """In-process (``nct`` fixture, Hydra's basic launcher runs the jobs in this process): a fresh
+    process would add only its start-up (test_joblib_multirun_then_report runs one)."""
     views, s = np.arange(60), (np.arange(32) - 15.5) / 32
     disc = np.tile(2 * np.sqrt(np.clip(0.2**2 - s**2, 0, None)), (60, 1)).astype(np.float32)  # a centred disc
     good = Sinogram(disc, views * 2 * np.pi / 60, views * 0.25 / 60, ParallelGeometry(32, 1 / 32))
@@ -215,8 +217,8 @@ def test_failed_jobs_are_reported_and_resume_reruns_only_them(tmp_path: Path):
     (tmp_path / "garbage.npz").write_bytes(b"not a sinogram")
     paths = ",".join(str(tmp_path / name) for name in ("good.npz", "absent.npz", "garbage.npz"))
     sweep = tmp_path / "sweep"
-    done = run_nct(tmp_path, "-m", "data=file", f"data.path={paths}", "method=fbp", *TINY, f"hydra.sweep.dir={sweep}")
-    assert done.returncode != 0  # Hydra reports the failures after running every job
+    code, _, _ = nct("-m", "data=file", f"data.path={paths}", "method=fbp", *TINY, f"hydra.sweep.dir={sweep}")
+    assert code != 0  # Hydra reports the failures after running every job
     rows = report_rows(sweep)
     assert [r["status"] for r in rows] == ["ok", "failed", "failed"]
     assert rows[0]["error"] == "" and all(r["error"].startswith("InputError") for r in rows[1:])
@@ -232,7 +234,7 @@ def test_failed_jobs_are_reported_and_resume_reruns_only_them(tmp_path: Path):
     before = [(f.read_bytes(), f.stat().st_mtime_ns) for f in kept]
     command = (sweep / "report" / "summary.md").read_text().split("\n    nct ")[1].splitlines()[0]
     assert command.endswith(f"hydra.sweep.dir={sweep} resume=true")
-    run_nct(tmp_path, *shlex.split(command))
+    nct(*shlex.split(command))
     assert [(f.read_bytes(), f.stat().st_mtime_ns) for f in kept] == before  # not recomputed, not rewritten
     assert [r["status"] for r in report_rows(sweep)] == ["ok", "ok", "failed"]
 

@@ -55,7 +55,7 @@ def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, 
     tab = hparams_tab(run_dir)
     assert {m.name.tag for m in tab.metric_infos} == {
         "hp/fbp_median_dice", "hp/fbp_median_mse", "hp/nct_median_dice", "hp/nct_median_mse", "hp/heldout_loss",
-        "hp/wall_time_s", "hp/n_params"}
+        "hp/wall_time_s", "hp/n_params", "hp/motion_ray_spread_px"}
     types = {h.name: h.type for h in tab.hparam_infos}
     assert types["export.tiff"] == api_pb2.DATA_TYPE_BOOL and types["seed"] == api_pb2.DATA_TYPE_FLOAT64
     acc = EventAccumulator(str(run_dir / "tb" / "hparams"))
@@ -64,6 +64,7 @@ def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, 
     frames = EventAccumulator(str(run_dir / "tb"))
     frames.Reload()
     assert frames.Tags()["images"], "no image grids written"
+    assert frames.Scalars("motion/ray_spread_px")[0].value < 1.0 and "motion_determinacy/text_summary" in frames.Tags()["tensors"]
 
 
 def test_swept_key_comes_first_in_the_tab(tiny_cfg, tmp_path):

@@ -100,7 +100,7 @@ def _first_line(error: str | None) -> str:
 
 def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) -> list[str]:
     """The markdown summary: counts, tables by swept setting, every job, what did not finish, the
-    warnings of suspect fits."""
+    runs' warnings (status.json: suspect fits, motion the data do not determine)."""
     counts: dict[str, int] = {}
     for job in jobs:
         counts[job.status] = counts.get(job.status, 0) + 1
@@ -132,7 +132,7 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
                   "(stop any run still going first):", "", f"    {command}"]
     lines += ["", "## Warnings", ""]
     lines += [f"- job {j.num} ({override_label(j, varying) or 'no varying override'}): {w}"
-              for j in jobs for w in j.warnings] or ["None: no fit the held-out views call suspect."]
+              for j in jobs for w in j.warnings] or ["None: no run warned."]
     lines += ["", "## Plots", "", *(f"![{name}]({path.name})" for name, path in plots.items()), ""]
     return lines
 

@@ -1,7 +1,7 @@
 """Settings of the reconstruction methods, one dataclass per config group, named for the code that reads it.
 
 ``model``: the neural field (fields.py);
-``trainer``: Lightning's own Trainer settings (``stages.run_stage``); ``optim``: steps and the
+``trainer``: Lightning's own Trainer settings (``trainer.run_stage``); ``optim``: steps and the
 optimiser (the stages and the passes of ``method.reconstruct``); ``render``: the occupancy and
 its projection (``SinogramFit``); ``init``: Algorithm 1's segmentation and the SDF frames InitFit
 fits; ``heldout``: the views held out of every fit; ``loss``: the loss weights. Plain dataclasses

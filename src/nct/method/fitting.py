@@ -20,8 +20,8 @@ from nct.method.fields import SpaceTimeField
 from nct.method.initialise import Start
 from nct.method.prepare import Problem
 from nct.method.select import HeldoutHistory
-from nct.method.stages import (HeldoutStop, IndexDataModule, InitFit, MinLossStop, RunClock, SinogramFit, Snapshot,
-                               SnapshotLog, run_stage)
+from nct.method.stages import InitFit, SinogramFit
+from nct.method.trainer import HeldoutStop, IndexDataModule, MinLossStop, RunClock, Snapshot, SnapshotLog, run_stage
 
 
 @dataclass

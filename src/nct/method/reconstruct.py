@@ -33,7 +33,8 @@ from nct.method.prepare import Problem, heldout_standard_error, prepare
 from nct.method.render import intensity
 from nct.method.sdf import binarise, masks_to_sdf
 from nct.method.select import RUNGS, Candidate, SelectionConf, Tournament, Verdict
-from nct.method.stages import LOGGERS, FieldStage, RunClock, SinogramFit, snapshot
+from nct.method.stages import FieldStage, SinogramFit
+from nct.method.trainer import LOGGERS, RunClock, snapshot
 
 log = logging.getLogger(__name__)
 RESTART_RATE = 0.5  # a fit whose misfit ends above its start is tried again at this share of its rates

@@ -13,7 +13,7 @@ import platform
 import time
 import traceback
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -27,6 +27,7 @@ from nct.errors import DivergenceError, InputError, MethodError
 from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory, validate
+from nct.run.determinacy import determinacy_warnings, motion_determinacy
 from nct.run.metrics import FrameMetrics, frame_metrics, quality_line, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
@@ -34,6 +35,7 @@ from nct.run.tracking import (
     write_frames,
     write_hparams,
     write_selection,
+    write_motion,
     write_trace,
 )
 from nct.scenes.phantoms import build_phantom
@@ -106,7 +108,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`suspect_fit`)."""
+    run's warnings (`determinacy_warnings`, `suspect_fit`)."""
     import lightning
     import torch
 
@@ -116,9 +118,11 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     rng = np.random.default_rng(conf.seed)
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
+    motion = motion_determinacy(acq.sino, acq.grid)
     frames, extra, trace = reconstruct_all(conf, acq, out_dir)
-    warnings = suspect_fit(conf, acq, extra)
-    result: dict = {"times": acq.frame_times.tolist(), **extra}
+    warnings = determinacy_warnings(motion) + suspect_fit(conf, acq, extra)
+    result: dict = {"times": acq.frame_times.tolist(), **extra,
+                    "motion_determinacy": asdict(motion) if motion is not None else None}
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
         truth = acq.sino.truth
@@ -199,6 +203,9 @@ def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarra
         write_selection(out_dir / "tb", result["model"], result["selection"])
     if "trace" in result:
         write_trace(out_dir / "tb", result["trace"])
+    if result["motion_determinacy"] is not None:
+        final["hp/motion_ray_spread_px"] = result["motion_determinacy"]["ray_spread_px"]
+        write_motion(out_dir / "tb", result["motion_determinacy"])
     overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
     write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
     write_frames(out_dir / "tb", _shown(acq, frames))
@@ -245,7 +252,8 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
     skips a finished folder only when it was made with the same settings. ``started``: when the
     job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
     the start of its one wall time, which the log, status.json and metrics.json give alike.
-    status.json's ``warnings``: why the fit is suspect (`suspect_fit`), empty when nothing says so.
+    status.json's ``warnings``: motion the data do not determine (`determinacy_warnings`) and why the
+    fit is suspect (`suspect_fit`), empty when nothing says so.
     """
     started = time.perf_counter() if started is None else started
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -97,3 +97,14 @@ def write_trace(tb_dir: Path, trace: list[dict]) -> None:
             ms = round(1000 * row["seconds"])
             w.add_scalar("trace/median_dice", row["median_dice"], global_step=ms)
             w.add_scalar("trace/median_mse", row["median_mse"], global_step=ms)
+
+
+def write_motion(tb_dir: Path, motion: dict) -> None:
+    """metrics.json's ``motion_determinacy`` (`nct.run.determinacy`) as text, and its spread along the
+    rays as the ``motion/ray_spread_px`` scalar."""
+    verdict = "determined" if motion["determined"] else "NOT determined: more rotations or a motion prior needed"
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        w.add_text("motion_determinacy", f"motion along the rays {verdict}: spread {fmt(motion['ray_spread_px'])} px "
+                   f"between equally good centroid trajectories (threshold {fmt(motion['threshold_px'])} px), prior "
+                   f"length scale {fmt(motion['length_scale_rot'])} rotations, misfit {fmt(motion['misfit_px'])} px")
+        w.add_scalar("motion/ray_spread_px", motion["ray_spread_px"])

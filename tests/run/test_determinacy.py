@@ -1,0 +1,44 @@
+"""The run's truth-free verdict on motion along the rays (nct.run.determinacy), on tiny simulated scans."""
+
+import json
+
+import numpy as np
+import pytest
+
+from nct.run.config import validate
+from nct.run.determinacy import determinacy_warnings, motion_determinacy
+from nct.run.pipeline import acquire, run_job
+
+
+def verdict(tiny_cfg, *overrides):
+    acq = acquire(validate(tiny_cfg(*overrides)), np.random.default_rng(0))
+    return motion_determinacy(acq.sino, acq.grid)
+
+
+@pytest.mark.parametrize("overrides, determined", [
+    (("phantom.displacement_deg=360",), False),  # a fast orbit: the ray's direction turns with it
+    (("phantom.displacement_deg=30",), True),
+    (("experiment=static",), True),  # two objects, no motion: their joint centroid is still
+])
+def test_verdict_follows_the_speed(tiny_cfg, overrides, determined):
+    m = verdict(tiny_cfg, *overrides)
+    assert m.determined is determined, m
+    assert (determinacy_warnings(m) == []) is determined
+    if not determined:
+        assert "more rotations or a motion prior needed" in determinacy_warnings(m)[0]
+
+
+def test_views_that_give_no_trajectory_give_no_verdict(tiny_cfg):
+    acq = acquire(validate(tiny_cfg()), np.random.default_rng(0))
+    empty = type(acq.sino)(values=np.zeros_like(acq.sino.values), angles=acq.sino.angles, times=acq.sino.times,
+                           geometry=acq.sino.geometry)
+    assert motion_determinacy(empty, acq.grid) is None and determinacy_warnings(None) == []
+
+
+def test_run_records_the_verdict(tiny_cfg, run_dir):
+    run_job(tiny_cfg("method=fbp", "phantom.displacement_deg=360", "export.gif=false", "export.tiff=false"), run_dir)
+    motion = json.loads((run_dir / "metrics.json").read_text())["motion_determinacy"]
+    assert set(motion) >= {"ray_spread_px", "threshold_px", "determined", "length_scale_rot", "misfit_px"}
+    assert motion["determined"] is False and motion["ray_spread_px"] > motion["threshold_px"]
+    warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
+    assert any(w.startswith("motion along the rays is not determined") for w in warnings)
