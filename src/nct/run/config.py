@@ -12,7 +12,7 @@ import math
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields, is_dataclass
-from typing import Any, Optional
+from typing import Any
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
@@ -47,7 +47,7 @@ class SimulateConf:
     """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless)."""
 
     name: str = "simulate"
-    noise_i0: Optional[float] = None
+    noise_i0: float | None = None
 
     def __post_init__(self) -> None:
         if self.noise_i0 is not None and not self.noise_i0 > 0:
@@ -65,10 +65,10 @@ class FileConf:
 
     name: str = "file"
     path: str = MISSING
-    sidecar: Optional[str] = None
+    sidecar: str | None = None
     n_objects: int = 1
-    extent: Optional[float] = None
-    i0: Optional[float] = None
+    extent: float | None = None
+    i0: float | None = None
 
     def __post_init__(self) -> None:
         if self.n_objects < 1:
@@ -90,7 +90,7 @@ class ScannerConf:
     rotation_time: float = 0.25
     start_deg: float = 0.0
     n_bins: int = 128
-    bin_spacing: Optional[float] = None
+    bin_spacing: float | None = None
     detector_offset: float = 0.0
 
     def build(self, extent: float) -> Scanner:
@@ -177,14 +177,26 @@ class SuspectConf:
     """When ``nct.run.suspect`` warns that a fit is poor, from the held-out views' misfits beyond
     the noise's (config group ``suspect``; the measured separation is in conf/suspect/default.yaml).
     ``fbp_ratio``: the fit's misfit above this × FBP's; ``excess``: the fit's misfit above this
-    share of the views' mean |value|."""
+    share of the views' mean |value|; ``offset_bins``: the detector offset the views' first moments
+    call for (`nct.run.consistency`) above this many bins, when their centroid moves less than
+    ``offset_motion_bins`` (RMS, bins) about a still object's; ``fan_radii``, ``fan_sigmas``: a
+    parallel-beam file whose view totals swing like a fan beam's with the source to detector within
+    this many field radii, the swing more than this many standard errors clear of none."""
 
     fbp_ratio: float = 1.0
     excess: float = 0.1
+    offset_bins: float = 1.0
+    offset_motion_bins: float = 0.5
+    fan_radii: float = 7.0
+    fan_sigmas: float = 5.0
 
     def __post_init__(self) -> None:
         require(self.fbp_ratio > 0, "suspect.fbp_ratio", "> 0", self.fbp_ratio)
         require(self.excess > 0, "suspect.excess", "> 0", self.excess)
+        require(self.offset_bins > 0, "suspect.offset_bins", "> 0", self.offset_bins)
+        require(self.offset_motion_bins > 0, "suspect.offset_motion_bins", "> 0", self.offset_motion_bins)
+        require(self.fan_radii > 1, "suspect.fan_radii", "> 1", self.fan_radii)
+        require(self.fan_sigmas > 0, "suspect.fan_sigmas", "> 0", self.fan_sigmas)
 
 
 @dataclass
@@ -214,7 +226,7 @@ class NCTConf:
     seed: int = 0
     method: str = "nct"
     resume: bool = False
-    threads: Optional[int] = None
+    threads: int | None = None
 
     def __post_init__(self) -> None:
         self.scanner.build(self.image.extent)

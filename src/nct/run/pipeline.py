@@ -27,6 +27,7 @@ from nct.errors import DivergenceError, InputError, MethodError
 from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory, validate
+from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.determinacy import determinacy_warnings, motion_determinacy
 from nct.run.metrics import FrameMetrics, frame_metrics, quality_line, summarise
 from nct.run.tables import write_csv
@@ -108,7 +109,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`determinacy_warnings`, `suspect_fit`)."""
+    run's warnings (`determinacy_warnings`, `geometry_warnings`, `suspect_fit`)."""
     import lightning
     import torch
 
@@ -119,10 +120,13 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
     motion = motion_determinacy(acq.sino, acq.grid)
+    geometry = check_geometry(acq.sino)
     frames, extra, trace = reconstruct_all(conf, acq, out_dir)
-    warnings = determinacy_warnings(motion) + suspect_fit(conf, acq, extra)
+    warnings = (determinacy_warnings(motion) + geometry_warnings(geometry, acq.sino, conf.suspect)
+                + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
-                    "motion_determinacy": asdict(motion) if motion is not None else None}
+                    "motion_determinacy": asdict(motion) if motion is not None else None,
+                    "geometry_check": asdict(geometry) if geometry is not None else None}
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
         truth = acq.sino.truth
@@ -252,8 +256,9 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
     skips a finished folder only when it was made with the same settings. ``started``: when the
     job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
     the start of its one wall time, which the log, status.json and metrics.json give alike.
-    status.json's ``warnings``: motion the data do not determine (`determinacy_warnings`) and why the
-    fit is suspect (`suspect_fit`), empty when nothing says so.
+    status.json's ``warnings``: motion the data do not determine (`determinacy_warnings`), a geometry
+    the views contradict (`geometry_warnings`) and why the fit is suspect (`suspect_fit`), empty
+    when nothing says so.
     """
     started = time.perf_counter() if started is None else started
     out_dir.mkdir(parents=True, exist_ok=True)
