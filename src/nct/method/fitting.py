@@ -1,7 +1,9 @@
 """A candidate's two stages: InitFit of a fresh field to a start's SDF frames, then SinogramFit to the views.
 
 Each candidate draws its field's weights and its minibatches from its own random streams, seeded by
-(seed, candidate name), so adding or removing a candidate changes no other candidate's fit.
+(seed, candidate name), so adding or removing a candidate changes no other candidate's fit; the first
+(the simplest rung from the best start) continues the run's own streams, so that ``motion=free`` with one
+start fits exactly as the method did before the ladder.
 """
 
 from __future__ import annotations

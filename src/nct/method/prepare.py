@@ -91,6 +91,11 @@ class Problem:
             return self.held_views
         return self.fit_views[np.unique(np.linspace(0, len(self.fit_views) - 1, most).round().astype(int))]
 
+    def empty_misfit(self) -> float:
+        """The misfit an empty image scores on ``check_views``: a fit no better than it explains nothing."""
+        check = torch.from_numpy(self.check_views())
+        return float(self.views.values[check].abs().sum(-1).mean()) / self.views.values.shape[1] / self.views.scale
+
     def held_losses(self, checked: np.ndarray) -> np.ndarray:
         """The held-out views' misfits [h] among ``checked`` ones (``check_views``): none when no view
         is held out (the check then ran on fitted views)."""

@@ -124,8 +124,10 @@ def reconstruct(
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
     prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg)
-    starts = find_starts(prob, n_objects, init, np.random.default_rng(seed))
-    verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, seed, motion, optim, render)
+    run_rng = np.random.default_rng(seed)
+    starts = find_starts(prob, n_objects, init, run_rng)
+    verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
+                                        render)
     winner = verdict.winner
     net, fit, checked = nets[winner.name], fitted[winner.name].fit, fitted[winner.name].losses
     net.load_state_dict(fitted[winner.name].state)
@@ -162,17 +164,21 @@ def reconstruct(
         trace=trace)
 
 
-def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[Start], n_objects: int, seed: int,
-                motion: SelectionConf, optim: OptimConf, render: RenderConf,
+def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[Start], n_objects: int,
+                seeds: tuple[int, np.random.Generator], motion: SelectionConf, optim: OptimConf, render: RenderConf,
                 ) -> tuple[Verdict, dict[str, Fitted], dict[str, SpaceTimeField]]:
     """Fit every candidate and choose one (select.py). All InitFits run first; the sinogram fits then run
-    from the best-started candidate on, so that the later ones race the best histories. A fit whose
-    misfit ends above where it started enters a restart at ``RESTART_RATE`` of its rates."""
+    from the best-started candidate on, so that the later ones race the best histories. A fit that ends
+    above where it started, or explains the check views no better than an empty image, has
+    lost its way (an object fell out of the band, where no gradient reaches it): a restart joins the
+    tournament, a fresh draw of the field from its own streams fitted at ``RESTART_RATE`` of the rates.
+    ``seeds``: the run's seed and its generator, which the first candidate continues (fitting.streams)."""
+    seed, run_rng = seeds
     nets: dict[str, SpaceTimeField] = {}
     started: dict[str, tuple[float, dict, np.random.Generator]] = {}
-    pool = candidates(motion.rungs, starts)
-    for cand in pool:
-        rng, torch_seed = streams(seed, cand.name)
+
+    def start(cand: Candidate) -> None:
+        rng, torch_seed = (run_rng, seed) if cand is pool[0] else streams(seed, cand.name)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
             nets[cand.name] = net = build_field(model, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
@@ -180,28 +186,34 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
             misfit = init_fit(prob, session, net, cand.name, starts[cand.start], optim.init_steps, optim, render, rng,
                               optim.coarse_size)
         started[cand.name] = misfit, copy.deepcopy(net.state_dict()), rng
+
+    pool = candidates(motion.rungs, starts)
+    for cand in pool:
+        start(cand)
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
+    empty = prob.empty_misfit()
     fitted: dict[str, Fitted] = {}
     queue = sorted(pool, key=lambda c: started[c.name][0])
     while queue:
         cand = queue.pop(0)
-        base = cand.name.removesuffix("_restart")
-        net = nets[cand.name] = nets[base]
-        misfit0, state, rng = started[base]
+        restart = cand.name.endswith("_restart")
+        if restart:
+            start(cand)
+        net = nets[cand.name]
+        misfit0, state, rng = started[cand.name]
         net.load_state_dict(state)
-        rate = RESTART_RATE if cand.name != base else 1.0
         with torch.random.fork_rng():
-            torch.manual_seed(streams(seed, cand.name)[1])
-            done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps, at_rate(optim, rate), render, rng,
-                                optim.coarse_size, tournament.stops())
+            torch.manual_seed(seed if cand is pool[0] else streams(seed, cand.name)[1])
+            done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
+                                at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
+                                tournament.stops())
         entry = tournament.record(cand, done.history, done.steps, done.misfit)
         session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
         fitted[cand.name] = done
-        if entry.pruned is None and done.misfit > misfit0 and cand.name == base:
-            log.warning("stage %s_fit: the misfit rose from %.3g to %.3g; a restart at %g of the rates joins the "
-                        "tournament", cand.name, misfit0, done.misfit, RESTART_RATE)
-            nets[f"{base}_restart"] = net
-            queue.insert(0, replace(cand, name=f"{base}_restart", simplicity=(*cand.simplicity, 1)))
+        if entry.pruned is None and not restart and (done.misfit > misfit0 or done.misfit >= empty):
+            log.warning("stage %s_fit: its misfit went from %.3g to %.3g (an empty image's: %.3g); a restart at %g of "
+                        "the rates joins the tournament", cand.name, misfit0, done.misfit, empty, RESTART_RATE)
+            queue.insert(0, replace(cand, name=f"{cand.name}_restart", simplicity=(*cand.simplicity, 1)))
     return tournament.verdict(), fitted, nets
 
 
