@@ -14,7 +14,12 @@ from omegaconf import OmegaConf
 
 from nct.analysis.jobs import Job, collect_jobs, flatten_metrics, planned_overrides
 from nct.analysis.report import write_report
-from nct.analysis.report_figures import aggregate, figures, heldout_vs_dice_figure, tv_grid
+from nct.analysis.report_figures import (
+    aggregate,
+    figures,
+    heldout_vs_dice_figure,
+    tv_grid,
+)
 from nct.cli.report import main
 from tests.conftest import figure_problems
 

@@ -13,7 +13,13 @@ from torch import nn
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, ModelConf
 from nct.method.fields import build_field, lattice_points
-from nct.method.motion import POSE_SCALE, GridMovedTemplate, MovedTemplate, legendre, mask_sightings
+from nct.method.motion import (
+    POSE_SCALE,
+    GridMovedTemplate,
+    MovedTemplate,
+    legendre,
+    mask_sightings,
+)
 from nct.method.reconstruct import reconstruct
 from nct.method.select import SelectionConf
 from tests.conftest import INIT, OPTIM, TRAINER, moving_disc

@@ -7,7 +7,13 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from nct.run.export import metric_figure, movie_figure, save_movie, strip_figure, trace_figure
+from nct.run.export import (
+    metric_figure,
+    movie_figure,
+    save_movie,
+    strip_figure,
+    trace_figure,
+)
 from nct.run.metrics import frame_metrics
 from tests.conftest import figure_problems
 

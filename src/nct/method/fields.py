@@ -271,7 +271,10 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
     """The field of ``conf.family`` holding ``motion`` (a rung of the ladder: static has no temporal
     terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V) for ``n_objects``
     objects on a scan of ``span`` rotations."""
-    from nct.method.motion import POSE, moved_template  # motion.py builds on this module
+    from nct.method.motion import (  # motion.py builds on this module
+        POSE,
+        moved_template,
+    )
 
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")

@@ -1,9 +1,9 @@
 """A candidate's two stages: InitFit of a fresh field to a start's SDF frames, then SinogramFit to the views.
 
 Each candidate draws its field's weights and its minibatches from its own random streams, seeded by
-(seed, candidate name), so adding or removing a candidate changes no other candidate's fit; the first
-(the simplest rung from the best start) continues the run's own streams, so that ``motion=free`` with one
-start fits exactly as the method did before the ladder.
+(seed, candidate name), so adding or removing a candidate changes no other candidate's fit; the paper's
+field from the best judged start (candidate ``free``) continues the run's own streams, so that
+``motion=free`` with one start fits exactly as the method did before the ladder.
 """
 
 from __future__ import annotations
@@ -23,7 +23,15 @@ from nct.method.initialise import Start
 from nct.method.prepare import Problem
 from nct.method.select import HeldoutHistory
 from nct.method.stages import InitFit, SinogramFit
-from nct.method.trainer import HeldoutStop, IndexDataModule, MinLossStop, RunClock, Snapshot, SnapshotLog, run_stage
+from nct.method.trainer import (
+    HeldoutStop,
+    IndexDataModule,
+    MinLossStop,
+    RunClock,
+    Snapshot,
+    SnapshotLog,
+    run_stage,
+)
 
 
 @dataclass

@@ -24,7 +24,13 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
-from nct.method.fields import MultiGrid, Siren, SpaceTimeField, lattice_points, pixel_centres
+from nct.method.fields import (
+    MultiGrid,
+    Siren,
+    SpaceTimeField,
+    lattice_points,
+    pixel_centres,
+)
 
 SPAN = 2.0  # the template covers [-SPAN, SPAN]^2 about its centre: the whole image for any centre in it
 POSE = {"rigid": ("x", "y", "angle"), "affine": ("x", "y", "angle", "log_scale_x", "log_scale_y", "shear")}

@@ -38,6 +38,7 @@ from nct.method.trainer import LOGGERS, RunClock, snapshot
 
 log = logging.getLogger(__name__)
 RESTART_RATE = 0.5  # a fit whose misfit ends above its start is tried again at this share of its rates
+PAPER = "free"  # the paper's field from the best judged start: the candidate that continues the run's random streams
 
 
 @dataclass(frozen=True)
@@ -169,16 +170,17 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
                 ) -> tuple[Verdict, dict[str, Fitted], dict[str, SpaceTimeField]]:
     """Fit every candidate and choose one (select.py). All InitFits run first; the sinogram fits then run
     from the best-started candidate on, so that the later ones race the best histories. A fit that ends
-    above where it started, or explains the check views no better than an empty image, has
-    lost its way (an object fell out of the band, where no gradient reaches it): a restart joins the
-    tournament, a fresh draw of the field from its own streams fitted at ``RESTART_RATE`` of the rates.
-    ``seeds``: the run's seed and its generator, which the first candidate continues (fitting.streams)."""
+    above where it started, or explains the check views no better than an empty image, has lost its way
+    (an object fell out of the band, where no gradient reaches it): a restart joins the tournament at
+    ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own
+    weights and InitFit) where that InitFit explained nothing either.
+    ``seeds``: the run's seed and its generator, which the candidate ``PAPER`` continues (fitting.streams)."""
     seed, run_rng = seeds
     nets: dict[str, SpaceTimeField] = {}
     started: dict[str, tuple[float, dict, np.random.Generator]] = {}
 
     def start(cand: Candidate) -> None:
-        rng, torch_seed = (run_rng, seed) if cand is pool[0] else streams(seed, cand.name)
+        rng, torch_seed = (run_rng, seed) if cand.name == PAPER else streams(seed, cand.name)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
             nets[cand.name] = net = build_field(model, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
@@ -197,13 +199,16 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
     while queue:
         cand = queue.pop(0)
         restart = cand.name.endswith("_restart")
-        if restart:
+        base = cand.name.removesuffix("_restart")
+        if restart and started[base][0] >= empty:
             start(cand)
+        elif restart:
+            nets[cand.name], started[cand.name] = nets[base], started[base]
         net = nets[cand.name]
         misfit0, state, rng = started[cand.name]
         net.load_state_dict(state)
         with torch.random.fork_rng():
-            torch.manual_seed(seed if cand is pool[0] else streams(seed, cand.name)[1])
+            torch.manual_seed(seed if cand.name == PAPER else streams(seed, cand.name)[1])
             done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
                                 at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
                                 tournament.stops())

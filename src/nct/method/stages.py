@@ -19,8 +19,8 @@ from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, OptimConf, RenderConf
 from nct.method.fields import SpaceTimeField, upsample
-from nct.method.select import HeldoutHistory
 from nct.method.render import project_frames
+from nct.method.select import HeldoutHistory
 from nct.physics.data_term import misfit
 
 

@@ -26,8 +26,8 @@ from torch.utils.data import DataLoader, IterableDataset
 from nct.errors import DivergenceError, InputError
 from nct.method.conf import LOGGERS, TrainerConf
 from nct.method.progress import StageBar, StageLog, log_stage, show_bar
-from nct.method.select import HeldoutHistory
 from nct.method.render import intensity
+from nct.method.select import HeldoutHistory
 from nct.method.stages import FieldStage, InitFit, SinogramFit, logging_step
 
 log = logging.getLogger(__name__)

@@ -35,8 +35,8 @@ from nct.run.tracking import (
     run_hparams,
     write_frames,
     write_hparams,
-    write_selection,
     write_motion,
+    write_selection,
     write_trace,
 )
 from nct.scenes.phantoms import build_phantom
