@@ -74,7 +74,7 @@ def test_no_finished_candidate_is_an_error():
 
 @pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "motion.rungs"), ({"rungs": ["wobbly"]}, "motion.rungs"),
                                          ({"rungs": ["free", "free"]}, "motion.rungs"),
-                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": 1.0}, "motion.tolerance")])
+                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": -0.1}, "motion.tolerance"), ({"band_f_max": 0.0}, "motion.band_f_max")])
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)

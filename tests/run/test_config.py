@@ -49,7 +49,8 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share, conf.init.starts) == (60, 3, 0.02, 2)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
-    assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance) == (["free"], 0.25, 0.05)
+    assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance, conf.motion.band_f_max,
+            conf.motion.band_min_rotations) == (["free"], 0.25, 2 / 3, 0.5, 1.5)
 
 
 def test_fast_optim_halves_every_stage_and_its_schedule():
@@ -99,7 +100,7 @@ def test_composition_errors_name_the_key(override, error, words):
         ("model.n_terms=-1", "model.n_terms"),
         ("model=grid model.levels=9", "model.resolution must be >= 2**model.levels"),
         ("motion.rungs=[free,wobbly]", "motion.rungs must be a non-empty list of static, rigid, affine, free"),
-        ("motion.tolerance=2", "motion.tolerance"),
+        ("motion.tolerance=-1", "motion.tolerance"),
         ("motion=auto heldout.every=1", "heldout.every must be >= 2"),
         ("optim.lr=0", "optim.lr must be > 0"),
         ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),

@@ -76,11 +76,16 @@ class NCTResult:
     trace: list[TracePoint] = field(default_factory=list)
 
 
-def candidates(rungs: list[str], starts: list[Start]) -> list[Candidate]:
-    """One candidate per rung and start (named ``<rung>`` for the best judged start, ``<rung>_start<n>``
-    for the others, so that more starts change no name); simpler rungs, then better judged starts, first."""
-    return [Candidate(f"{rung}_start{n}" if n else rung, rung, (RUNGS.index(rung), n), n)
-            for rung in rungs for n in range(len(starts))]
+def candidates(motion: SelectionConf, starts: list[Start], span: float) -> list[Candidate]:
+    """One candidate per model and start (named ``<model>`` for the best judged start, ``<model>_start<n>``
+    for the others, so that more starts change no name): each rung of ``motion.rungs``, and on a scan of
+    ``span`` >= ``motion.band_min_rotations`` rotations the free rung at ``motion.band_f_max`` too
+    (``free_band``); simpler models, then better judged starts, first."""
+    models = [(rung, rung, (RUNGS.index(rung), 0), None) for rung in motion.rungs]
+    if "free" in motion.rungs and motion.band_f_max is not None and span >= motion.band_min_rotations:
+        models.append(("free_band", "free", (RUNGS.index("free"), 1), motion.band_f_max))
+    return [Candidate(f"{name}_start{n}" if n else name, rung, simplicity, n, f_max)
+            for name, rung, simplicity, f_max in models for n in range(len(starts))]
 
 
 @torch.no_grad()
@@ -156,7 +161,8 @@ def reconstruct(
         intensities=amplitudes.numpy(), heldout_loss=float(held.mean()) if len(held) else float("nan"),
         heldout_se=heldout_standard_error(held), stages=session.stages,
         model={"motion": winner.rung, "family": model.family, **net.describe()},
-        selection={"winner": winner.name, "rung": winner.rung, "reason": verdict.reason, "table": verdict.rows,
+        selection={"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
+                   "reason": verdict.reason, "table": verdict.rows,
                    "tolerance": motion.tolerance, "first_budget": motion.first_budget},
         init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels, "start": winner.start,
               "starts_tried": len(starts), "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
@@ -183,13 +189,14 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
         rng, torch_seed = (run_rng, seed) if cand.name == PAPER else streams(seed, cand.name)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
-            nets[cand.name] = net = build_field(model, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
+            conf = model if cand.f_max is None else replace(model, f_max=cand.f_max)
+            nets[cand.name] = net = build_field(conf, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
                                                   prob.span)
             misfit = init_fit(prob, session, net, cand.name, starts[cand.start], optim.init_steps, optim, render, rng,
                               optim.coarse_size)
         started[cand.name] = misfit, copy.deepcopy(net.state_dict()), rng
 
-    pool = candidates(motion.rungs, starts)
+    pool = candidates(motion, starts, prob.span)
     for cand in pool:
         start(cand)
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
@@ -218,7 +225,7 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
         if entry.pruned is None and not restart and (done.misfit > misfit0 or done.misfit >= empty):
             log.warning("stage %s_fit: its misfit went from %.3g to %.3g (an empty image's: %.3g); a restart at %g of "
                         "the rates joins the tournament", cand.name, misfit0, done.misfit, empty, RESTART_RATE)
-            queue.insert(0, replace(cand, name=f"{cand.name}_restart", simplicity=(*cand.simplicity, 1)))
+            queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
     return tournament.verdict(), fitted, nets
 
 
