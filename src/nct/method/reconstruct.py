@@ -218,7 +218,7 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
             torch.manual_seed(seed if cand.name == PAPER else streams(seed, cand.name)[1])
             done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
                                 at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
-                                tournament.stops())
+                                tournament.stops(cand))
         entry = tournament.record(cand, done.history, done.steps, done.misfit)
         session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
         fitted[cand.name] = done

@@ -2,9 +2,10 @@
 
 Candidates are fitted one after another, simplest first, and scored on the held-out views, which
 no fit sees. Successive halving, run sequentially (as Optuna's pruner does): the milestones of the
-schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops when its
-held-out misfit is above (1 + ``tolerance``) x the best any candidate had there, so a fit that
-cannot win costs only the steps to its first losing milestone. Parsimony then picks the model: the
+schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops where,
+were the misfits to stay as they stand there, parsimony would not choose it: above (1 + ``tolerance``) x
+a freer model's misfit, above a candidate's of its own model, or above a simpler model's over
+(1 + ``tolerance``). So a fit that cannot win costs only the steps to its first losing milestone. Parsimony then picks the model: the
 simplest whose best finished candidate (over its starts and restarts) is within (1 + ``tolerance``) of
 the best, and that candidate wins. The table
 of every candidate (``Verdict.rows``) is written as selection.csv. No truth is read.
@@ -107,31 +108,39 @@ class Tournament:
         due = [loss for at, loss in history if at <= step]
         return due[-1] if due else None
 
-    def best_at(self, step: int) -> float:
-        """The best misfit any recorded candidate had at ``step`` (inf: none reached it)."""
-        seen = [self._at(e.history, step) for e in self.entries if e.steps >= step]
-        return min((s for s in seen if s is not None), default=math.inf)
+    def to_win_at(self, candidate: Candidate, step: int) -> float:
+        """The misfit ``candidate`` must not exceed at ``step`` to be chosen were the recorded candidates'
+        misfits there final (inf: none reached it): parsimony's bound against each of them."""
+        bounds = []
+        for e in self.entries:
+            seen = self._at(e.history, step) if e.steps >= step else None
+            if seen is None:
+                continue
+            other = e.candidate.simplicity
+            factor = (1 + self.conf.tolerance) ** ((other > candidate.simplicity) - (other < candidate.simplicity))
+            bounds.append(seen * factor)
+        return min(bounds, default=math.inf)
 
-    def verdict_at(self, history: HeldoutHistory) -> str | None:
-        """Why a fit with this ``history`` stops now (None: it goes on): its latest check is a
-        milestone where its misfit is above (1 + tolerance) x the best recorded there."""
+    def verdict_at(self, candidate: Candidate, history: HeldoutHistory) -> str | None:
+        """Why ``candidate``'s fit with this ``history`` stops now (None: it goes on): its latest check is a
+        milestone where its misfit is above what it would need to win (``to_win_at``)."""
         if not history:
             return None
         step, loss = history[-1]
         if step not in self.milestones:
             return None
-        best = self.best_at(step)
-        if loss > (1 + self.conf.tolerance) * best:
-            return f"stopped at step {step}: held-out misfit {loss:.4g} above {1 + self.conf.tolerance:g} x the best {best:.4g}"
+        bound = self.to_win_at(candidate, step)
+        if loss > bound:
+            return f"stopped at step {step}: held-out misfit {loss:.4g} above the {bound:.4g} it needed to win"
         return None
 
-    def stops(self) -> Callable[[HeldoutHistory], bool]:
-        """The rule for the next candidate's fit (a HeldoutStop callback's): stop where ``verdict_at`` says."""
-        return lambda history: self.verdict_at(history) is not None
+    def stops(self, candidate: Candidate) -> Callable[[HeldoutHistory], bool]:
+        """The rule for ``candidate``'s fit (a HeldoutStop callback's): stop where ``verdict_at`` says."""
+        return lambda history: self.verdict_at(candidate, history) is not None
 
     def record(self, candidate: Candidate, history: HeldoutHistory, steps: int, misfit: float) -> Entry:
         """Enter a fitted candidate; one that stopped before ``steps`` is pruned (its misfit kept for the table)."""
-        pruned = self.verdict_at(history) if steps < self.steps else None
+        pruned = self.verdict_at(candidate, history) if steps < self.steps else None
         entry = Entry(candidate, steps, list(history), misfit, pruned)
         self.entries.append(entry)
         return entry
