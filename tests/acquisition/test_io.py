@@ -26,7 +26,7 @@ from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import InputError
 from nct.method.normalise import Units
 from nct.physics.projector import fbp_frames
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 from nct.scenes.phantoms import StaticConf, build_phantom
 from nct.scenes.simulate import simulate
 from tests.conftest import GEOMETRIES, closed_form_sinogram

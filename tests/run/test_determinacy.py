@@ -7,7 +7,8 @@ import pytest
 
 from nct.run.config import validate
 from nct.run.determinacy import determinacy_warnings, motion_determinacy
-from nct.run.pipeline import acquire, run_job
+from nct.run.job import run_job
+from nct.run.pipeline import acquire
 
 
 def verdict(tiny_cfg, *overrides):

@@ -17,7 +17,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 
 
 def read(path):
@@ -81,7 +81,7 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
 
 def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(tiny_cfg, run_dir, caplog):
     started = time.perf_counter() - 100.0  # e.g. the process's start, given by the CLI
-    with caplog.at_level(logging.INFO, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.INFO, logger="nct.run.job"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir, started=started)
     wall = read(run_dir / "status.json")["wall_time_s"]
     assert read(run_dir / "metrics.json")["wall_time_s"] == wall
@@ -92,7 +92,7 @@ def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(t
 @pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
 def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
     """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""
-    with caplog.at_level(logging.WARNING, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.WARNING, logger="nct.run.job"):
         run_job(tiny_cfg(f"optim.init_steps={steps}", f"optim.fit_steps={2 * steps}", "logger=none",
                          "export.gif=false", "export.tiff=false", "export.png=false"), run_dir)
     status, metrics = read(run_dir / "status.json"), read(run_dir / "metrics.json")

@@ -9,7 +9,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 from tensorboard.plugins import base_plugin
 from tensorboard.plugins.hparams import api_pb2, backend_context, plugin_data_pb2
 
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 from nct.run.tables import fmt
 from nct.run.tracking import run_hparams, write_capacity
 
