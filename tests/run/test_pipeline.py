@@ -40,7 +40,7 @@ def test_fbp_run_writes_every_output(tiny_cfg, run_dir):
 
 def test_fbp_of_static_scene_matches_truth(tiny_cfg, run_dir):
     cfg = tiny_cfg("method=fbp", "experiment=static", "image.size=128", "scanner.n_bins=128",
-                   "scanner.views_per_rotation=360", "logger=none", "export.gif=false", "export.tiff=false")
+                   "scanner.views_per_rotation=360", *QUIET)
     run_job(cfg, run_dir)
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
@@ -60,8 +60,8 @@ def radon_file(path, n=129):
 
 def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     img = radon_file(tmp_path / "scan.npz")
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360",
-                     "logger=none", "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360", *QUIET),
+            run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     assert rec["fbp"].shape == (1,) + img.shape
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
@@ -145,8 +145,7 @@ def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
         mm = {"sinogram": f["sinogram"] * np.float32(0.02 * 200), "angles": f["angles"], "times": f["times"],
               "bin_spacing": f["bin_spacing"] * 200}  # a 200 mm field of view, 0.02 /mm
     np.savez(tmp_path / "mm.npz", **mm)
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", "logger=none",
-                     "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", *QUIET), run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     n_bins = mm["sinogram"].shape[1]
     assert float(rec["extent"]) == pytest.approx(n_bins * float(mm["bin_spacing"]))
@@ -190,7 +189,7 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
 def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path):
     """A checkpoint written by an older model (here without the per-object static buffers) ends
     the resumed run with one named InputError, not a traceback from load_state_dict."""
-    steps = ("logger=none",)
+    steps = QUIET
     run_job(tiny_cfg(*steps), tmp_path, list(steps))
     ckpt = tmp_path / "checkpoints" / "fit" / "last.ckpt"
     saved = torch.load(ckpt, weights_only=True)
