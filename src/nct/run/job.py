@@ -2,7 +2,7 @@
 ``status.json`` (running, ok, failed or diverged, with the wall time and warnings) in the run folder.
 
 A run that fails records its error there and leaves every other run's folder untouched. Bad input
-fails here before the pipeline (torch, matplotlib, ...) is imported: a typo costs a second, not five.
+fails here before the pipeline (torch, matplotlib, ...) is imported, in a third of the time.
 """
 
 from __future__ import annotations
