@@ -142,8 +142,9 @@ def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path)
     assert {"path": "nct.conf", "schema": "pkg", "provider": "main"} in sources
 
 
-def test_config_schemas_import_without_torch():
-    code = "import sys, nct.run.config; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
+def test_config_schemas_and_the_job_record_import_without_torch():
+    """So that bad input ends ``nct`` before torch is loaded (nct.run.job validates, then imports the pipeline)."""
+    code = "import sys, nct.run.job; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"

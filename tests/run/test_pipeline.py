@@ -17,7 +17,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 
 
 def read(path):
@@ -40,7 +40,7 @@ def test_fbp_run_writes_every_output(tiny_cfg, run_dir):
 
 def test_fbp_of_static_scene_matches_truth(tiny_cfg, run_dir):
     cfg = tiny_cfg("method=fbp", "experiment=static", "image.size=128", "scanner.n_bins=128",
-                   "scanner.views_per_rotation=360", "logger=none", "export.gif=false", "export.tiff=false")
+                   "scanner.views_per_rotation=360", *QUIET)
     run_job(cfg, run_dir)
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
@@ -60,8 +60,8 @@ def radon_file(path, n=129):
 
 def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     img = radon_file(tmp_path / "scan.npz")
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360",
-                     "logger=none", "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360", *QUIET),
+            run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     assert rec["fbp"].shape == (1,) + img.shape
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
@@ -81,7 +81,7 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
 
 def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(tiny_cfg, run_dir, caplog):
     started = time.perf_counter() - 100.0  # e.g. the process's start, given by the CLI
-    with caplog.at_level(logging.INFO, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.INFO, logger="nct.run.job"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir, started=started)
     wall = read(run_dir / "status.json")["wall_time_s"]
     assert read(run_dir / "metrics.json")["wall_time_s"] == wall
@@ -92,7 +92,7 @@ def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(t
 @pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
 def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
     """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""
-    with caplog.at_level(logging.WARNING, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.WARNING, logger="nct.run.job"):
         run_job(tiny_cfg(f"optim.init_steps={steps}", f"optim.fit_steps={2 * steps}", "logger=none",
                          "export.gif=false", "export.tiff=false", "export.png=false"), run_dir)
     status, metrics = read(run_dir / "status.json"), read(run_dir / "metrics.json")
@@ -145,8 +145,7 @@ def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
         mm = {"sinogram": f["sinogram"] * np.float32(0.02 * 200), "angles": f["angles"], "times": f["times"],
               "bin_spacing": f["bin_spacing"] * 200}  # a 200 mm field of view, 0.02 /mm
     np.savez(tmp_path / "mm.npz", **mm)
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", "logger=none",
-                     "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", *QUIET), run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     n_bins = mm["sinogram"].shape[1]
     assert float(rec["extent"]) == pytest.approx(n_bins * float(mm["bin_spacing"]))
@@ -190,7 +189,7 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
 def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path):
     """A checkpoint written by an older model (here without the per-object static buffers) ends
     the resumed run with one named InputError, not a traceback from load_state_dict."""
-    steps = ("logger=none",)
+    steps = QUIET
     run_job(tiny_cfg(*steps), tmp_path, list(steps))
     ckpt = tmp_path / "checkpoints" / "fit" / "last.ckpt"
     saved = torch.load(ckpt, weights_only=True)
@@ -208,7 +207,7 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
     steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false",
              "capacity.static_below_px=0")
-    run_job(tiny_cfg(*steps), tmp_path / "plain")
+    run_job(tiny_cfg(*steps, "export.png=false"), tmp_path / "plain")  # its pictures come after the fit, unread
     run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
     np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
                                   np.load(tmp_path / "plain" / "reconstruction.npz")["nct"])
