@@ -21,11 +21,13 @@ from nct.run.config import NCTConf, validate
 from tests.conftest import compose_config
 
 
-@pytest.mark.parametrize("experiment", ["circle", "heart", "heart_cine", "letters", "static"])
-def test_every_experiment_composes_and_validates(experiment):
+@pytest.mark.parametrize("experiment, phantom", [("circle", "circle"), ("heart", "heart"), ("heart_cine", "heart"),
+                                                 ("letters", "letters"), ("static", "static"),
+                                                 ("thorax", "composed"), ("nodule", "composed")])
+def test_every_experiment_composes_and_validates(experiment, phantom):
     conf = validate(compose_config([f"experiment={experiment}"]))
     assert isinstance(conf, NCTConf)
-    assert conf.phantom.name == ("heart" if experiment.startswith("heart") else experiment)
+    assert conf.phantom.name == phantom
 
 
 def test_defaults_are_the_documented_ones():

@@ -14,9 +14,10 @@ class Truth:
     """Ground-truth intensity frames for scoring.
 
     frames: [F, H, W] float32 intensity on a square grid of side ``extent`` (rows: y down).
-    times: [F] seconds. level: the Dice threshold intensity (half the faintest object). levels:
-    each object's own level (its container's intensity plus half its own: an object inside
-    another is scored there), one per object; empty when unknown.
+    times: [F] seconds. level: the Dice threshold intensity (half the faintest object; for objects
+    inside others, the lowest own level). levels: each object's own level (its container's
+    intensity plus half its own: an object inside another is scored there), one per object; empty
+    when unknown.
     """
 
     frames: np.ndarray
