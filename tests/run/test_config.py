@@ -131,7 +131,7 @@ def test_range_errors_name_the_key(override, key):
 
 def test_a_simulation_names_at_least_one_object_to_fit():
     assert config.SimulateConf(n_objects=2).n_objects == 2 and config.SimulateConf().n_objects is None
-    with pytest.raises(ValueError, match=r"data\.n_objects must be >= 1 \(or null: one per object of the phantom\), got 0"):
+    with pytest.raises(ValueError, match=r"data\.n_objects must be >= 1 \(or null: one per object of the phantom"):
         config.SimulateConf(n_objects=0)
 
 

@@ -108,7 +108,8 @@ def summarise(m: FrameMetrics) -> dict:
         "share_mse_lt_0.005": float(np.mean(m.mse < m.mse_good_below)),
         "share_dice_gt_0.85": float(np.mean(m.dice > DICE_GOOD)),
         "objects": [{"level": v, "median_dice": float(np.median(d))} for v, d in zip(m.object_levels, m.object_dice)],
-        "per_frame": {name: getattr(m, name).tolist() for name in ("mse", "nrmse", "psnr", "ssim", "dice", "object_dice")},
+        "per_frame": {name: getattr(m, name).tolist()
+                      for name in ("mse", "nrmse", "psnr", "ssim", "dice", "object_dice")},
     }
 
 

@@ -247,7 +247,8 @@ class ComposedConf:
                      f"{reach:.4g}")
         if (params[..., 5] < 0).any() or any(getattr(o, k) != Signal() for o in self.objects for k in _GRADIENT_KEYS):
             coarse = tau[::4]  # 16 times a cycle
-            lowest = _ellipse_phantom(self.objects, 1.0).values(coarse, *ImageGrid(SIGN_CHECK_SIZE).xy()).min(axis=(1, 2))
+            scene = _ellipse_phantom(self.objects, 1.0)
+            lowest = scene.values(coarse, *ImageGrid(SIGN_CHECK_SIZE).xy()).min(axis=(1, 2))
             low, when = float(lowest.min()), float(coarse[np.argmin(lowest)])
             _require(low >= 0, "objects", "intensities that sum to >= 0 everywhere throughout the scan (a "
                      "negative object inside brighter ones)", f"{low:.4g} at {when:.3g} rotations")
