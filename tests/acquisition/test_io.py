@@ -57,7 +57,10 @@ def test_round_trip(tmp_path):
     np.testing.assert_array_equal(r.angles, s.angles)
     np.testing.assert_array_equal(r.truth.frames, s.truth.frames)
     assert r.geometry == s.geometry and r.truth.extent == 1.0 and r.truth.level == 0.5
-    assert r.i0 is None
+    assert r.i0 is None and r.truth.levels == ()
+    with_levels = replace(s, truth=replace(s.truth, levels=(0.5, 1.25)))
+    save_sinogram(tmp_path / "l.npz", with_levels)
+    assert load_sinogram(tmp_path / "l.npz").truth.levels == (0.5, 1.25)
 
 
 def test_i0_round_trip(tmp_path):

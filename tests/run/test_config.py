@@ -21,11 +21,13 @@ from nct.run.config import NCTConf, validate
 from tests.conftest import compose_config
 
 
-@pytest.mark.parametrize("experiment", ["circle", "heart", "heart_cine", "letters", "static"])
-def test_every_experiment_composes_and_validates(experiment):
+@pytest.mark.parametrize("experiment, phantom", [("circle", "circle"), ("heart", "heart"), ("heart_cine", "heart"),
+                                                 ("letters", "letters"), ("static", "static"),
+                                                 ("thorax", "composed"), ("nodule", "composed")])
+def test_every_experiment_composes_and_validates(experiment, phantom):
     conf = validate(compose_config([f"experiment={experiment}"]))
     assert isinstance(conf, NCTConf)
-    assert conf.phantom.name == ("heart" if experiment.startswith("heart") else experiment)
+    assert conf.phantom.name == phantom
 
 
 def test_defaults_are_the_documented_ones():
@@ -125,6 +127,12 @@ def test_range_errors_name_the_key(override, key):
     with pytest.raises(InputError) as info:
         validate(compose_config(override.split()))
     assert key in str(info.value)
+
+
+def test_a_simulation_names_at_least_one_object_to_fit():
+    assert config.SimulateConf(n_objects=2).n_objects == 2 and config.SimulateConf().n_objects is None
+    with pytest.raises(ValueError, match=r"data\.n_objects must be >= 1 \(or null: one per object of the phantom"):
+        config.SimulateConf(n_objects=0)
 
 
 def test_default_run_is_the_circle_experiment():

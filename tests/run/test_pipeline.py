@@ -17,7 +17,9 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
+from nct.run.config import validate
 from nct.run.job import run_job
+from nct.run.pipeline import acquire
 
 
 def read(path):
@@ -244,3 +246,10 @@ def test_trace_ends_with_the_output_when_objects_are_made_static(tiny_cfg, tmp_p
     assert (fitted["stage"], output["stage"]) == ("fit_start1", "output") and output["step"] == fitted["step"] == 80
     assert output["seconds"] >= fitted["seconds"]
     assert output["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
+
+
+def test_a_simulation_fits_the_objects_data_n_objects_names(tiny_cfg):
+    """K: data.n_objects when set (the moving parts of a scene inside static anatomy; null: one per
+    object of the phantom); the truth keeps every object's own level."""
+    acq = acquire(validate(tiny_cfg("experiment=static", "data.n_objects=1")), np.random.default_rng(0))
+    assert acq.n_objects == 1 and acq.sino.truth.levels == pytest.approx((0.5, 0.25))

@@ -74,7 +74,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
     frame_times = scanner.frame_times(conf.image.frames_per_rotation)
     sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
-    return Acquisition(sino, grid, frame_times, len(phantom.intensities))
+    return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
 
 def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict, list]:
@@ -126,7 +126,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
         truth = acq.sino.truth
-        scored = {name: frame_metrics(f, truth.frames, truth.level) for name, f in frames.items()}
+        scored = {name: frame_metrics(f, truth.frames, truth.level, truth.levels) for name, f in frames.items()}
         result.update({name: summarise(m) for name, m in scored.items()})
         if trace:
             result["trace"] = score_trace(trace, truth.frames, truth.level)
