@@ -26,7 +26,7 @@ from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import InputError
 from nct.method.normalise import Units
 from nct.physics.projector import fbp_frames
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 from nct.scenes.phantoms import StaticConf, build_phantom
 from nct.scenes.simulate import simulate
 from tests.conftest import GEOMETRIES, closed_form_sinogram
@@ -57,7 +57,10 @@ def test_round_trip(tmp_path):
     np.testing.assert_array_equal(r.angles, s.angles)
     np.testing.assert_array_equal(r.truth.frames, s.truth.frames)
     assert r.geometry == s.geometry and r.truth.extent == 1.0 and r.truth.level == 0.5
-    assert r.i0 is None
+    assert r.i0 is None and r.truth.levels == ()
+    with_levels = replace(s, truth=replace(s.truth, levels=(0.5, 1.25)))
+    save_sinogram(tmp_path / "l.npz", with_levels)
+    assert load_sinogram(tmp_path / "l.npz").truth.levels == (0.5, 1.25)
 
 
 def test_i0_round_trip(tmp_path):
@@ -244,7 +247,7 @@ def test_fan_beam_file_runs_through_the_pipeline(tiny_cfg, run_dir, tmp_path):
     sino = simulate(phantom, scanner, ImageGrid(64), np.array([0.125]), None, np.random.default_rng(0))
     save_sinogram(tmp_path / "fan.npz", sino)
     run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'fan.npz'}", "fbp.window_deg=360",
-                     "logger=none", "export.gif=false", "export.tiff=false"), run_dir)
+                     "logger=none", "export.gif=false", "export.tiff=false", "export.png=false"), run_dir)
     assert json.loads((run_dir / "metrics.json").read_text())["fbp"]["median_dice"] >= 0.98
     assert load_sinogram(run_dir / "sinogram.npz").geometry == geometry
 

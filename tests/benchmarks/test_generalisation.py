@@ -144,7 +144,7 @@ def test_own_level_of_a_nested_object_adds_its_containers():
 def test_init_candidates_sees_what_the_run_segments(tmp_path):
     """benchmarks/diagnostics/init_candidates.py stops the run where it segments: the judged candidate the run
     kept (metrics.json -> init -> start) has the a(k) it records as its initial levels."""
-    from nct.run.pipeline import run_job
+    from nct.run.job import run_job
     from tests.conftest import compose_config
 
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]

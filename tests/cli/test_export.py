@@ -13,7 +13,7 @@ from omegaconf import OmegaConf
 
 from nct.cli.export import main
 from nct.method.reload import load_run
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 from tests.conftest import TINY, compose_config
 
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
@@ -156,9 +156,10 @@ def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):
 
 def test_a_run_without_a_logger_keeps_its_checkpoints(tmp_path):
     """logger=none turns off TensorBoard, not the checkpoints nct-export and resume read."""
-    from nct.run.pipeline import run_job
+    from nct.run.job import run_job
     from tests.conftest import TINY, compose_config
 
-    run_job(compose_config(TINY + ["logger=none"]), tmp_path / "run")
+    run_job(compose_config(TINY + ["logger=none", "export.gif=false", "export.png=false", "export.tiff=false"]),
+            tmp_path / "run")
     assert sorted(p.parent.name for p in (tmp_path / "run" / "checkpoints").glob("*/last.ckpt")) == ["free_fit", "free_init"]
     assert not (tmp_path / "run" / "tb").exists()

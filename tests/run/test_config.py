@@ -21,11 +21,13 @@ from nct.run.config import NCTConf, validate
 from tests.conftest import compose_config
 
 
-@pytest.mark.parametrize("experiment", ["circle", "heart", "heart_cine", "letters", "static"])
-def test_every_experiment_composes_and_validates(experiment):
+@pytest.mark.parametrize("experiment, phantom", [("circle", "circle"), ("heart", "heart"), ("heart_cine", "heart"),
+                                                 ("letters", "letters"), ("static", "static"),
+                                                 ("thorax", "composed"), ("nodule", "composed")])
+def test_every_experiment_composes_and_validates(experiment, phantom):
     conf = validate(compose_config([f"experiment={experiment}"]))
     assert isinstance(conf, NCTConf)
-    assert conf.phantom.name == ("heart" if experiment.startswith("heart") else experiment)
+    assert conf.phantom.name == phantom
 
 
 def test_defaults_are_the_documented_ones():
@@ -125,6 +127,12 @@ def test_range_errors_name_the_key(override, key):
     assert key in str(info.value)
 
 
+def test_a_simulation_names_at_least_one_object_to_fit():
+    assert config.SimulateConf(n_objects=2).n_objects == 2 and config.SimulateConf().n_objects is None
+    with pytest.raises(ValueError, match=r"data\.n_objects must be >= 1 \(or null: one per object of the phantom"):
+        config.SimulateConf(n_objects=0)
+
+
 def test_default_run_is_the_circle_experiment():
     assert validate(compose_config([])) == validate(compose_config(["experiment=circle"]))
 
@@ -140,8 +148,9 @@ def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path)
     assert {"path": "nct.conf", "schema": "pkg", "provider": "main"} in sources
 
 
-def test_config_schemas_import_without_torch():
-    code = "import sys, nct.run.config; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
+def test_config_schemas_and_the_job_record_import_without_torch():
+    """So that bad input ends ``nct`` before torch is loaded (nct.run.job validates, then imports the pipeline)."""
+    code = "import sys, nct.run.job; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"

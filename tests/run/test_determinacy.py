@@ -5,9 +5,11 @@ import json
 import numpy as np
 import pytest
 
+from nct.analysis.benchmarking import QUIET
 from nct.run.config import validate
 from nct.run.determinacy import determinacy_warnings, motion_determinacy
-from nct.run.pipeline import acquire, run_job
+from nct.run.job import run_job
+from nct.run.pipeline import acquire
 
 
 def verdict(tiny_cfg, *overrides):
@@ -36,7 +38,7 @@ def test_views_that_give_no_trajectory_give_no_verdict(tiny_cfg):
 
 
 def test_run_records_the_verdict(tiny_cfg, run_dir):
-    run_job(tiny_cfg("method=fbp", "phantom.displacement_deg=360", "export.gif=false", "export.tiff=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "phantom.displacement_deg=360", *QUIET), run_dir)
     motion = json.loads((run_dir / "metrics.json").read_text())["motion_determinacy"]
     assert set(motion) >= {"ray_spread_px", "threshold_px", "determined", "length_scale_rot", "misfit_px"}
     assert motion["determined"] is False and motion["ray_spread_px"] > motion["threshold_px"]

@@ -10,8 +10,10 @@ import pytest
 from nct.run.export import (
     metric_figure,
     movie_figure,
+    movie_pictures,
     save_movie,
     strip_figure,
+    time_label,
     trace_figure,
 )
 from nct.run.metrics import frame_metrics
@@ -95,3 +97,18 @@ def test_movie_has_a_picture_per_frame_at_fixed_size(tmp_path: Path):
     movie = iio.imread(path, index=None)
     assert movie.shape[0] == 4 and movie.shape[-1] == 3
     assert not np.array_equal(movie[0], movie[1])  # the frames (and the label) change
+
+
+def test_movie_pictures_are_a_full_draw_of_each_frame():
+    """movie_pictures redraws only what changes; the pixels are those of drawing the whole figure anew."""
+    times = np.array([0.0, 0.05, 0.1, 0.15])
+    shown = frames()
+    fig, images, label = movie_figure(shown, times, EXTENT)
+    full = []
+    for i, t in enumerate(times):
+        for im, f in zip(images, shown.values()):
+            im.set_data(f[i])
+        label.set_text(time_label(t))
+        fig.canvas.draw()
+        full.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+    np.testing.assert_array_equal(movie_pictures(shown, times, EXTENT), np.stack(full))

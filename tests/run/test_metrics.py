@@ -1,4 +1,5 @@
-"""Per-frame MSE, NRMSE, PSNR, SSIM and Dice, and the per-run summary."""
+"""Per-frame MSE, NRMSE, PSNR, SSIM and Dice (of the foreground and at each object's own level), and
+the per-run summary."""
 
 import numpy as np
 import pytest
@@ -77,3 +78,23 @@ def test_summary():
 def test_quality_line_has_significant_digits_for_small_errors():
     line = quality_line(summary_of([3.1234e-6] * 3, [0.97] * 3))
     assert "MSE 3.12e-06 (intensity unit²)" in line and "PSNR 30 dB" in line and "0.00000" not in line
+
+
+def test_dice_at_each_object_own_level():
+    """A small bright object inside a dim body: at the body's level the body, at the object's own
+    level (the body's plus half its own) the object alone, which the foreground's Dice hides."""
+    truth = np.zeros((2, 16, 16))
+    truth[:, 2:14, 2:14] = 0.4
+    truth[:, 6:8, 6:8] = 1.4  # 4 pixels
+    recon = truth.copy()
+    recon[1, 6:8, 6:8] = 0.4  # frame 1 loses the object
+    recon[1, 6:8, 8:10] = 1.4  # ... and draws it beside itself
+    m = frame_metrics(recon, truth, 0.2, object_levels=(0.2, 0.9))
+    assert m.object_levels == (0.2, 0.9) and m.object_dice.shape == (2, 2)
+    assert m.object_dice[0] == pytest.approx([1.0, 1.0]) and m.object_dice[1] == pytest.approx([1.0, 0.0])
+    assert m.dice == pytest.approx([1.0, 1.0])
+    s = summarise(m)
+    assert s["objects"] == [{"level": 0.2, "median_dice": 1.0}, {"level": 0.9, "median_dice": 0.5}]
+    assert s["per_frame"]["object_dice"] == [[1.0, 1.0], [1.0, 0.0]]
+    assert "at the objects' own levels 0.2: Dice 1, 0.9: Dice 0.5" in quality_line(s)
+    assert summarise(frame_metrics(recon, truth, 0.2))["objects"] == []

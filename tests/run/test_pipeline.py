@@ -17,7 +17,9 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
-from nct.run.pipeline import run_job
+from nct.run.config import validate
+from nct.run.job import run_job
+from nct.run.pipeline import acquire
 
 
 def read(path):
@@ -40,7 +42,7 @@ def test_fbp_run_writes_every_output(tiny_cfg, run_dir):
 
 def test_fbp_of_static_scene_matches_truth(tiny_cfg, run_dir):
     cfg = tiny_cfg("method=fbp", "experiment=static", "image.size=128", "scanner.n_bins=128",
-                   "scanner.views_per_rotation=360", "logger=none", "export.gif=false", "export.tiff=false")
+                   "scanner.views_per_rotation=360", *QUIET)
     run_job(cfg, run_dir)
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
@@ -60,8 +62,8 @@ def radon_file(path, n=129):
 
 def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     img = radon_file(tmp_path / "scan.npz")
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360",
-                     "logger=none", "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", "fbp.window_deg=360", *QUIET),
+            run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     assert rec["fbp"].shape == (1,) + img.shape
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
@@ -81,7 +83,7 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
 
 def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(tiny_cfg, run_dir, caplog):
     started = time.perf_counter() - 100.0  # e.g. the process's start, given by the CLI
-    with caplog.at_level(logging.INFO, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.INFO, logger="nct.run.job"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir, started=started)
     wall = read(run_dir / "status.json")["wall_time_s"]
     assert read(run_dir / "metrics.json")["wall_time_s"] == wall
@@ -92,7 +94,7 @@ def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(t
 @pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
 def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
     """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""
-    with caplog.at_level(logging.WARNING, logger="nct.run.pipeline"):
+    with caplog.at_level(logging.WARNING, logger="nct.run.job"):
         run_job(tiny_cfg(f"optim.init_steps={steps}", f"optim.fit_steps={2 * steps}", "logger=none",
                          "export.gif=false", "export.tiff=false", "export.png=false"), run_dir)
     status, metrics = read(run_dir / "status.json"), read(run_dir / "metrics.json")
@@ -145,8 +147,7 @@ def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):
         mm = {"sinogram": f["sinogram"] * np.float32(0.02 * 200), "angles": f["angles"], "times": f["times"],
               "bin_spacing": f["bin_spacing"] * 200}  # a 200 mm field of view, 0.02 /mm
     np.savez(tmp_path / "mm.npz", **mm)
-    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", "logger=none",
-                     "export.gif=false"), run_dir)
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'mm.npz'}", *QUIET), run_dir)
     rec = np.load(run_dir / "reconstruction.npz")
     n_bins = mm["sinogram"].shape[1]
     assert float(rec["extent"]) == pytest.approx(n_bins * float(mm["bin_spacing"]))
@@ -190,7 +191,7 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
 def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path):
     """A checkpoint written by an older model (here without the frequencies buffer) ends
     the resumed run with one named InputError, not a traceback from load_state_dict."""
-    steps = ("logger=none",)
+    steps = QUIET
     run_job(tiny_cfg(*steps), tmp_path, list(steps))
     ckpt = tmp_path / "checkpoints" / "free_fit" / "last.ckpt"
     saved = torch.load(ckpt, weights_only=True)
@@ -207,7 +208,7 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     snapshot is scored against the truth (trace.csv, trace.png, TensorBoard). The last snapshot is
     the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
     steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false")
-    run_job(tiny_cfg(*steps), tmp_path / "plain")
+    run_job(tiny_cfg(*steps, "export.png=false"), tmp_path / "plain")  # its pictures come after the fit, unread
     run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
     np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
                                   np.load(tmp_path / "plain" / "reconstruction.npz")["nct"])
@@ -245,3 +246,10 @@ def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg
     fitted_last = [r["stage"] for r in trace if r["stage"] != "output"][-1]
     assert trace[-1]["stage"] == ("output" if not fitted_last.startswith("static") else fitted_last)
     assert trace[-1]["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
+
+
+def test_a_simulation_fits_the_objects_data_n_objects_names(tiny_cfg):
+    """K: data.n_objects when set (the moving parts of a scene inside static anatomy; null: one per
+    object of the phantom); the truth keeps every object's own level."""
+    acq = acquire(validate(tiny_cfg("experiment=static", "data.n_objects=1")), np.random.default_rng(0))
+    assert acq.n_objects == 1 and acq.sino.truth.levels == pytest.approx((0.5, 0.25))

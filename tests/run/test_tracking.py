@@ -9,7 +9,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 from tensorboard.plugins import base_plugin
 from tensorboard.plugins.hparams import api_pb2, backend_context, plugin_data_pb2
 
-from nct.run.pipeline import run_job
+from nct.run.job import run_job
 from nct.run.tracking import run_hparams
 
 IDENTITY = {"method", "data.name", "phantom.name", "model.name", "seed"}
@@ -70,7 +70,8 @@ def test_hparams_are_the_overrides_and_identity_keys_with_their_types(tiny_cfg, 
 def test_swept_key_comes_first_in_the_tab(tiny_cfg, tmp_path):
     """Two runs side by side: the key whose value differs leads the table (TensorBoard sorts it first)."""
     for name, disp in (("a", 20), ("b", 60)):
-        overrides = ["method=fbp", f"phantom.displacement_deg={disp}", "export.gif=false", "export.tiff=false"]
+        overrides = ["method=fbp", f"phantom.displacement_deg={disp}", "export.gif=false", "export.tiff=false",
+                     "export.png=false"]
         run_job(tiny_cfg(*overrides), tmp_path / name, overrides)
     tab = hparams_tab(tmp_path)
     assert [(h.name, h.differs) for h in tab.hparam_infos][:2] == [("phantom.displacement_deg", True),
@@ -91,7 +92,8 @@ def test_selection_is_in_metrics_selection_csv_and_tensorboard(tiny_cfg, run_dir
     """motion.rungs [static, free]: metrics.json, selection.csv and TensorBoard all say which candidates
     were fitted, how far, and why one won."""
     cfg = tiny_cfg("motion.rungs=[static,free]", "model=grid", "model.resolution=32", "model.temporal_resolution=8",
-                   "export.gif=false", "optim.init_steps=20", "optim.fit_steps=20")
+                   "export.gif=false", "export.png=false", "export.tiff=false",
+                   "optim.init_steps=20", "optim.fit_steps=20")
     run_job(cfg, run_dir)
     metrics = json.loads((run_dir / "metrics.json").read_text())
     selection, model = metrics["selection"], metrics["model"]
@@ -112,7 +114,8 @@ def test_selection_is_in_metrics_selection_csv_and_tensorboard(tiny_cfg, run_dir
 def test_stages_log_previews_residuals_and_heldout_validation(tiny_cfg, run_dir):
     """The image callback draws each stage's frames (and SinogramFit's residual) from its field;
     SinogramFit's held-out views are scored as Lightning validation."""
-    run_job(tiny_cfg("method=nct", "heldout.check_every=2", "export.gif=false", "export.tiff=false"), run_dir)
+    run_job(tiny_cfg("method=nct", "heldout.check_every=2", "export.gif=false", "export.tiff=false",
+                     "export.png=false"), run_dir)
     init, fit = (EventAccumulator(str(run_dir / "tb" / name)) for name in ("free_init", "free_fit"))
     init.Reload(), fit.Reload()
     assert set(init.Tags()["images"]) == {"free_init/frames"}

@@ -1,11 +1,16 @@
-"""Scenes from their configs: motion as configured, Hydra schemas, validation naming the key."""
+"""Scenes from their configs: motion as configured, Hydra schemas, validation naming the key; the
+thorax and nodule experiments (a moving part inside static, textured anatomy)."""
 
 import math
+from dataclasses import replace
+from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+import nct.conf
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.scenes.phantoms import (
     CircleConf,
@@ -171,6 +176,11 @@ def test_static_scene_has_two_intensities():
     (lambda: ComposedConf(objects=[EllipseConf(), EllipseConf(a=Signal(0.05, amplitude=0.1,
                                                                        cycles_per_rotation=1.0))]),
      r"phantom\.objects\[1\]\.a"),
+    (lambda: ComposedConf(objects=[EllipseConf(intensity=Signal(0.2, amplitude=0.3, cycles_per_rotation=1.0))]),
+     r"phantom\.objects\[0\]\.intensity must be of one sign"),
+    (lambda: ComposedConf(objects=[EllipseConf(a=Signal(0.3)), EllipseConf(x=Signal(0.25), intensity=Signal(-0.5))]),
+     r"phantom\.objects must be intensities that sum to >= 0"),  # a lung poking out of its body
+    (lambda: ComposedConf(objects=[EllipseConf(a=Signal(0.3), gradient_x=Signal(5.0))]), r"phantom\.objects must"),
 ])
 def test_bad_values_raise_naming_the_key(make, key):
     with pytest.raises(ValueError, match=key):
@@ -181,3 +191,65 @@ def test_bad_value_fails_when_config_is_built():
     bad = OmegaConf.merge(OmegaConf.structured(CircleConf), {"displacement_deg": 400})
     with pytest.raises(ValueError, match=r"phantom\.displacement_deg must be in \[0, 360\], got 400"):
         OmegaConf.to_object(bad)
+
+
+# ------------------------------------------------------------------ moving parts inside static anatomy
+
+ANATOMY = {  # experiment: its moving objects' indices, K
+    "thorax": ((7, 8), 2),
+    "nodule": ((1, 2, 3), 3),
+}
+
+
+@cache
+def experiment_scene(name: str) -> tuple[ComposedConf, int, float]:
+    """The phantom, K and rotations an experiment sets (its YAML read directly: Hydra's composition of
+    it is tests/run/test_config.py's)."""
+    exp = OmegaConf.load(Path(nct.conf.__file__).parent / "experiment" / f"{name}.yaml")
+    rotations = float(exp.scanner.rotations)
+    conf = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(ComposedConf), exp.phantom,
+                                               {"rotations": rotations}))
+    return conf, int(exp.data.n_objects), rotations
+
+
+@pytest.mark.parametrize("experiment", ANATOMY)
+def test_anatomy_experiments_build_with_a_still_surround(experiment):
+    conf, n_objects, rotations = experiment_scene(experiment)
+    moving, k = ANATOMY[experiment]
+    assert n_objects == k
+    still = [i for i in range(len(conf.objects)) if i not in moving]
+    for i, obj in enumerate(conf.objects):
+        signals = [getattr(obj, key) for key in ("x", "y", "a", "b", "angle_deg", "intensity")]
+        assert any(s.amplitude or s.rate for s in signals) == (i in moving), i
+    phantom = build_phantom(conf, T_ROT)
+    grid = ImageGrid(48)
+    times = np.linspace(0.0, rotations * T_ROT, 7)
+    frames = phantom.frames(times, grid, supersample=2)
+    assert np.isfinite(frames).all() and frames.min() >= 0
+    # The still part does not move: only pixels the moving objects reach change.
+    params = phantom.ellipses(times)[:, list(moving)]
+    x, y = grid.xy()
+    reach = np.zeros(x.shape, bool)
+    for cx, cy, a, b, *_ in params.reshape(-1, 6):
+        reach |= np.hypot(x - cx, y - cy) <= max(a, b) + grid.pixel_size
+    changed = np.ptp(frames, axis=0) > 0
+    assert changed.any() and not changed[~reach].any()
+    # The moving parts' own levels lie above every still part's intensity outside them, so that
+    # each is scored alone (the thorax's myocardium: the whole heart).
+    levels = phantom.levels(times)
+    brightest_still = frames[:, ~reach].max()
+    assert min(levels[i] for i in moving if conf.objects[i].intensity.value > 0) > brightest_still
+    assert len(levels) == len(conf.objects) and len(still) >= 1
+
+
+def test_thorax_surround_is_textured():
+    """Not piecewise constant: inside the body, hardly any two vertical neighbours are equal (a
+    piecewise-constant chest: most of them)."""
+    conf = experiment_scene("thorax")[0]
+    frame = build_phantom(conf, T_ROT).image(0.0, ImageGrid(64), supersample=2)
+    pairs = (frame[1:] > 0.1) & (frame[:-1] > 0.1)
+    equal = np.isclose(frame[1:], frame[:-1], rtol=0, atol=1e-6)[pairs]
+    assert equal.mean() < 0.1
+    flat = [replace(o, gradient_x=Signal(), gradient_y=Signal()) for o in conf.objects]
+    frame = build_phantom(ComposedConf(objects=flat), T_ROT).image(0.0, ImageGrid(64), 2)
+    assert np.isclose(frame[1:], frame[:-1], rtol=0, atol=1e-6)[pairs].mean() > 0.5

@@ -1,13 +1,16 @@
 """Images and projections of the shapes: against the closed form and an independent projector
-(skimage's radon), area-averaged images."""
+(skimage's radon), area-averaged images; graded ellipses against finer rasterisations and rays
+marched through the image; each object's own level."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.integrate import quad
 from skimage.transform import radon
 
+from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.scenes.phantoms import (
     CircleConf,
@@ -15,8 +18,10 @@ from nct.scenes.phantoms import (
     EllipseConf,
     LettersConf,
     Signal,
+    StaticConf,
     build_phantom,
 )
+from tests.conftest import detector_u, orbit, reference_rays, still
 
 T_ROT = 0.25
 
@@ -89,3 +94,59 @@ def test_letters_projection_matches_skimage_radon():
     sino = phantom.project(scanner, grid)
     assert rel_l2(sino, ref) < 0.02
     assert sino.sum(axis=1) * scanner.bin_spacing == pytest.approx(fine.sum() * fine_grid.pixel_size**2, rel=1e-5)
+
+
+# A graded body (rotated, off-centre, darker to one side) with a darker, graded hole in it.
+GRADED = [EllipseConf(x=Signal(0.04), y=Signal(-0.03), a=Signal(0.36), b=Signal(0.22), angle_deg=Signal(25.0),
+                      gradient_x=Signal(0.6), gradient_y=Signal(-0.9)),
+          EllipseConf(x=Signal(-0.1), y=Signal(-0.04), a=Signal(0.08), b=Signal(0.11), angle_deg=Signal(-40.0),
+                      intensity=Signal(-0.6), gradient_x=Signal(0.5))]
+
+
+def test_graded_ellipses_match_a_finer_rasterisation():
+    """Parallel beam: the closed form against skimage's radon of a 5x finer raster (odd sizes: radon
+    turns about the centre pixel), averaged across each bin."""
+    phantom = build_phantom(ComposedConf(objects=GRADED), T_ROT)
+    grid = ImageGrid(49, extent=1.5)
+    scanner = Scanner(views_per_rotation=20, rotations=0.5, rotation_time=T_ROT, n_bins=49, bin_spacing=grid.pixel_size)
+    fine_grid = grid.refined(5)
+    ref_fine = radon_rows(phantom.image(0.0, fine_grid, supersample=2), scanner.angles, fine_grid.pixel_size)
+    s_fine = (np.arange(fine_grid.size) - fine_grid.size // 2) * fine_grid.pixel_size
+    across_bin = scanner.bin_positions[:, None] + ((np.arange(16) + 0.5) / 16 - 0.5) * scanner.bin_spacing
+    ref = np.stack([np.interp(across_bin, s_fine, row).mean(axis=1) for row in ref_fine])
+    flat = [replace(o, gradient_x=Signal(), gradient_y=Signal()) for o in GRADED]
+    # Measured 0.13 %; the same scene without its gradients is 7.7 % off.
+    assert rel_l2(phantom.project(scanner, grid), ref) < 0.004
+    assert rel_l2(build_phantom(ComposedConf(objects=flat), T_ROT).project(scanner, grid), ref) > 0.05
+
+
+def test_graded_ellipses_project_along_fan_rays():
+    """Fan beam (curved, offset): the closed form against rays marched through the scene's intensity."""
+    geometry = FanGeometry(64, 0.0125, 2.0, 1.0, "curved", detector_offset=-0.1)
+    scanner = Scanner(3, 1.0, T_ROT, 0.3, **{"n_bins": geometry.n_bins, **geometry.keys()})
+    phantom = build_phantom(ComposedConf(objects=GRADED), T_ROT)
+    sub = ((np.arange(4) + 0.5) / 4 - 0.5) * geometry.bin_spacing
+    start, direction = reference_rays(geometry, scanner.angles, (detector_u(geometry)[:, None] + sub).ravel())
+    step = 1e-3
+    t = np.arange(1.5, 2.5, step) + step / 2  # the stretch of each ray within 0.5 of the axis, and more
+    marched = np.stack([phantom.values(np.array([0.0]), *(start[v, :, None, k] + t * direction[v, :, None, k]
+                                                         for k in (0, 1)))[0].sum(axis=-1) * step
+                        for v in range(scanner.n_views)])
+    ref = marched.reshape(scanner.n_views, geometry.n_bins, len(sub)).mean(axis=-1)
+    # Measured 0.10 % (the closed form neglects a fan bin's angular width, as for uniform ellipses, and the
+    # march's steps); without the gradients' term: 7 %.
+    assert rel_l2(phantom.project(scanner, ImageGrid(64)), ref) < 3e-3
+
+
+@pytest.mark.parametrize("objects, levels", [
+    (StaticConf().ellipse_objects(), (0.5, 0.25)),  # apart: half their own
+    ([still(0.0, 0.0, 0.32, 0.26, 0.4), orbit(0.1, 0.12, 100.0, 1.0)], (0.2, 0.4 + 0.5)),  # a vessel in a body
+    ([still(0.0, 0.0, 0.4, 0.3, 1.0), still(-0.2, 0.0, 0.1, 0.2, -0.75), still(-0.2, 0.05, 0.02, 0.02, 1.5)],
+     (0.5, 1.0 - 0.375, 0.25 + 0.75)),  # a nodule in a lung in a body
+    ([replace(still(0.0, 0.0, 0.4, 0.3, 1.0), gradient_y=Signal(0.5)), still(0.0, 0.1, 0.1, 0.08, 0.4),
+      still(0.0, 0.12, 0.05, 0.04, 0.6)], (0.5, 1.05 + 0.2, 1.06 + 0.4 + 0.3)),  # a heart: its pool lies on it
+])
+def test_each_object_own_level_is_its_containers_plus_half_its_own(objects, levels):
+    phantom = build_phantom(ComposedConf(objects=objects), T_ROT)
+    assert phantom.levels(np.linspace(0.0, T_ROT, 7)) == pytest.approx(levels)
+    assert build_phantom(LettersConf(intensity=0.8), T_ROT).levels(np.array([0.0])) == pytest.approx((0.4,))

@@ -11,9 +11,9 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.physics.projector import project
-from nct.scenes.phantoms import CircleConf, LettersConf, StaticConf, build_phantom
+from nct.scenes.phantoms import CircleConf, ComposedConf, LettersConf, StaticConf, build_phantom
 from nct.scenes.simulate import attenuation_scale, simulate
-from tests.conftest import GEOMETRIES, closed_form_sinogram, rel_l2
+from tests.conftest import GEOMETRIES, closed_form_sinogram, rel_l2, still
 
 GRID = ImageGrid(32, extent=1.0)
 SCANNER = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=48, bin_spacing=1 / 32)
@@ -57,8 +57,17 @@ def test_truth_frames_times_and_level():
     truth = sino.truth
     assert truth.frames.shape == (4, 32, 32) and truth.frames.dtype == np.float32
     assert np.array_equal(truth.times, TIMES) and truth.extent == GRID.extent
-    assert truth.level == pytest.approx(0.2)
-    assert truth.frames.max() == pytest.approx(1.0)
+    assert truth.level == pytest.approx(0.2) and truth.levels == pytest.approx((0.5, 0.2))
+
+
+def test_truth_levels_of_objects_inside_others():
+    """A dark lung inside a body, a bright nodule inside the lung, a faint structure in the body: each
+    object's own level, and the Dice level the body's (the lowest of a positive object's), not half
+    the faint structure's contrast (0.1), where any ripple outside the body would read as foreground."""
+    conf = ComposedConf(objects=[still(0.0, 0.0, 0.4, 0.3, 1.0), still(-0.2, 0.0, 0.1, 0.2, -0.75),
+                                 still(-0.2, 0.05, 0.03, 0.03, 1.0), still(0.2, 0.0, 0.05, 0.05, 0.2)])
+    truth = run(None, conf=conf).truth
+    assert truth.levels == pytest.approx((0.5, 0.625, 0.75, 1.1)) and truth.level == pytest.approx(0.5)
 
 
 @pytest.mark.parametrize("i0", [0.0, -5.0, float("inf")])

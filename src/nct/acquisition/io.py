@@ -6,7 +6,7 @@ Keys: ``sinogram`` [n_views, n_bins] (any real dtype, read as float32: `working_
 ``source_distance`` is present, with ``detector_distance`` (both > 0) and optional
 ``detector_shape`` ("flat" default, or "curved"): the convention of ``geometry.py``; for scoring
 ``truth`` [n_frames, H, W] with ``truth_times`` [n_frames] and ``truth_extent`` scalar (and
-optionally ``truth_level``).
+optionally ``truth_level`` and ``truth_levels`` [K], each object's own level).
 
 Raw data instead of ``sinogram``: ``counts`` [n_views, n_bins] (>= 0) with ``flat`` and optional
 ``dark`` (default 0), each a scalar, [n_bins] or [n_views, n_bins]; the line integrals are
@@ -34,8 +34,8 @@ REQUIRED = ("angles", "times", "bin_spacing")  # and the data: ``sinogram``, or 
 DATA_KEYS = ("sinogram", "counts")
 RAW_KEYS = ("flat", "dark")
 GEOMETRY_KEYS = ("source_distance", "detector_distance", "detector_shape", "detector_offset")
-OPTIONAL = (*GEOMETRY_KEYS, *RAW_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "angles_unit", "i0",
-            "attenuation")
+OPTIONAL = (*GEOMETRY_KEYS, *RAW_KEYS, "truth", "truth_times", "truth_extent", "truth_level", "truth_levels",
+            "angles_unit", "i0", "attenuation")
 TIFF_SUFFIXES = (".tif", ".tiff")
 COUNTS_FLOOR = 1e-6  # normalised transmission below this (a ray that recorded nothing) is clipped to it
 ANGLES_UNITS = ("rad", "deg")
@@ -64,6 +64,8 @@ def save_sinogram(path: str | Path, sino: Sinogram) -> None:
         arrays["truth_times"] = np.asarray(sino.truth.times, dtype=np.float64)
         arrays["truth_extent"] = np.float64(sino.truth.extent)
         arrays["truth_level"] = np.float64(sino.truth.level)
+        if sino.truth.levels:
+            arrays["truth_levels"] = np.asarray(sino.truth.levels, dtype=np.float64)
     np.savez_compressed(Path(path), **arrays)
 
 
@@ -325,7 +327,7 @@ def _angles(data: dict, path: str, n_views: int) -> np.ndarray:
 
 def _load_truth(data: dict, path: str) -> Truth | None:
     if "truth" not in data:
-        for key in ("truth_times", "truth_extent", "truth_level"):
+        for key in ("truth_times", "truth_extent", "truth_level", "truth_levels"):
             if key in data:
                 raise _fail(path, "truth", f"present when '{key}' is", "missing")
         return None
@@ -344,4 +346,5 @@ def _load_truth(data: dict, path: str) -> Truth | None:
         if peak <= 0:
             raise _fail(path, "truth", "some positive intensity (to set the Dice level)", "an all-zero truth")
         level = 0.5 * peak
-    return Truth(frames.astype(np.float32), times, extent, level)
+    levels = tuple(float(v) for v in _array(data, path, "truth_levels", 1)) if "truth_levels" in data else ()
+    return Truth(frames.astype(np.float32), times, extent, level, levels)

@@ -14,13 +14,17 @@ class Truth:
     """Ground-truth intensity frames for scoring.
 
     frames: [F, H, W] float32 intensity on a square grid of side ``extent`` (rows: y down).
-    times: [F] seconds. level: the Dice threshold intensity (half the faintest object).
+    times: [F] seconds. level: the Dice threshold intensity (half the faintest object; for objects
+    inside others, the lowest own level). levels: each object's own level (its container's
+    intensity plus half its own: an object inside another is scored there), one per object; empty
+    when unknown.
     """
 
     frames: np.ndarray
     times: np.ndarray
     extent: float
     level: float
+    levels: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)

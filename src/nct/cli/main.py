@@ -1,4 +1,4 @@
-"""The ``nct`` command: a Hydra application around `nct.run.pipeline.run_job`.
+"""The ``nct`` command: a Hydra application around `nct.run.job.run_job`.
 
 Configuration errors (Hydra's composition errors, the schema's and the data's) end the command
 with one line ``nct: error: ...`` on stderr and exit code 2, expected failures of the method
@@ -46,7 +46,7 @@ def app(cfg: DictConfig) -> float | None:
     """Run one reconstruction into Hydra's output folder; return the truth-free held-out loss."""
     hydra_cfg = HydraConfig.get()
     started = job_start(hydra_cfg.mode.name == "RUN")
-    from nct.run.pipeline import run_job
+    from nct.run.job import run_job
 
     try:
         return run_job(cfg, Path(hydra_cfg.runtime.output_dir), list(hydra_cfg.overrides.task), started)

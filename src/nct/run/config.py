@@ -44,14 +44,20 @@ from nct.scenes.phantoms import (
 
 @dataclass
 class SimulateConf:
-    """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless)."""
+    """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless);
+    ``n_objects``: K, the objects to fit (None: one per object of the phantom; a scene of a moving
+    part inside static anatomy names how many parts move)."""
 
     name: str = "simulate"
     noise_i0: float | None = None
+    n_objects: int | None = None
 
     def __post_init__(self) -> None:
         if self.noise_i0 is not None and not self.noise_i0 > 0:
             raise ValueError(f"data.noise_i0 must be > 0 (or null for no noise), got {self.noise_i0}")
+        if self.n_objects is not None and self.n_objects < 1:
+            raise ValueError(f"data.n_objects must be >= 1 (or null: one per object of the phantom), "
+                             f"got {self.n_objects}")
 
 
 @dataclass

@@ -103,27 +103,47 @@ def movie_figure(frames: dict[str, np.ndarray], times: np.ndarray, extent: float
     fig.supxlabel(X_LABEL, fontsize=7)
     fig.supylabel(Y_LABEL, fontsize=7)
     fig.colorbar(images[0], ax=axes, label=INTENSITY_LABEL, shrink=0.9)
-    label = fig.suptitle(_time_label(float(np.max(times))), fontsize=9)
+    label = fig.suptitle(time_label(float(np.max(times))), fontsize=9)
     fig.canvas.draw()  # constrained layout makes room for the label and the panel titles ...
     fig.set_layout_engine("none")  # ... once: the panels stay put from frame to frame
     return fig, images, label
 
 
-def _time_label(t: float) -> str:
+def time_label(t: float) -> str:
+    """The movie's label for time ``t`` (s)."""
     return f"t = {t * 1e3:.0f} ms"
+
+
+def movie_pictures(frames: dict[str, np.ndarray], times: np.ndarray, extent: float) -> np.ndarray:
+    """The movie's pictures [F, H, W, 3] uint8 (`movie_figure` at each of ``times`` [F] s). What stays put
+    is drawn once; each frame then redraws only the panels' images, their spines and the time label on
+    that background: the same pixels as a full draw per frame, in a fifth of the time at 48 frames."""
+    fig, images, label = movie_figure(frames, times, extent)
+    # Spines too: drawn on the background as well, their antialiased edges would be blended twice.
+    changing = [*images, label, *(spine for im in images for spine in im.axes.spines.values())]
+    for artist in changing:
+        artist.set_visible(False)
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    for artist in changing:
+        artist.set_visible(True)
+    pictures = []
+    for i, t in enumerate(times):
+        fig.canvas.restore_region(background)
+        for im, f in zip(images, frames.values()):
+            im.set_data(f[i])
+            im.axes.draw_artist(im)
+            for spine in im.axes.spines.values():
+                im.axes.draw_artist(spine)
+        label.set_text(time_label(t))
+        fig.draw_artist(label)
+        pictures.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+    return np.stack(pictures)
 
 
 def save_movie(path: Path, frames: dict[str, np.ndarray], times: np.ndarray, fps: float, extent: float) -> None:
     """An animated GIF of the methods side by side (truth | FBP | NCT), labelled, looping."""
-    fig, images, label = movie_figure(frames, times, extent)
-    pictures = []
-    for i, t in enumerate(times):
-        for im, f in zip(images, frames.values()):
-            im.set_data(f[i])
-        label.set_text(_time_label(t))
-        fig.canvas.draw()
-        pictures.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
-    iio.imwrite(path, np.stack(pictures), extension=".gif", duration=1000.0 / fps, loop=0)
+    iio.imwrite(path, movie_pictures(frames, times, extent), extension=".gif", duration=1000.0 / fps, loop=0)
 
 
 #: The panels of `metric_figure`: FrameMetrics field, axis label, log scale.

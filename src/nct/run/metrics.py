@@ -1,8 +1,10 @@
-"""Per-frame image quality against the truth (MSE, NRMSE, PSNR, SSIM, foreground Dice) and its per-run summary."""
+"""Per-frame image quality against the truth (MSE, NRMSE, PSNR, SSIM, foreground Dice, Dice at each
+object's own level) and its per-run summary."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from skimage.metrics import (
@@ -22,7 +24,8 @@ class FrameMetrics:
     """One method's scores, arrays [F] float64 (one value per frame): mse in the data's intensity
     unit squared; nrmse = ||recon - truth|| / ||truth|| (unitless); psnr in dB and ssim (unitless,
     1 = identical) over the truth's intensity range ``data_range``; dice of the foreground masks.
-    ``mse_good_below``: the MSE under which a frame counts as good (`mse_bar`)."""
+    ``mse_good_below``: the MSE under which a frame counts as good (`mse_bar`). ``object_dice``
+    [K, F]: Dice at each of ``object_levels`` (the truth's `Truth.levels`, one per object)."""
 
     mse: np.ndarray
     nrmse: np.ndarray
@@ -31,6 +34,8 @@ class FrameMetrics:
     dice: np.ndarray
     data_range: float
     mse_good_below: float
+    object_levels: tuple[float, ...] = ()
+    object_dice: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 def dice(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -54,12 +59,15 @@ def mse_bar(data_range: float) -> float:
     return RELATIVE_MSE_GOOD * data_range**2
 
 
-def frame_metrics(recon: np.ndarray, truth: np.ndarray, level: float) -> FrameMetrics:
+def frame_metrics(recon: np.ndarray, truth: np.ndarray, level: float,
+                  object_levels: Sequence[float] = ()) -> FrameMetrics:
     """Every score per frame. recon, truth: [F, H, W] on the same grid and times.
 
     Foreground (for Dice) is intensity >= ``level`` in both images, the truth's Dice level: half the
     faintest true object's intensity (``Truth.level``), so the same threshold, relative to the true
-    intensities, scores FBP and NeuralCT. PSNR and SSIM use the truth's `intensity_range`.
+    intensities, scores FBP and NeuralCT; so is each object's mask at its own level (``Truth.levels``:
+    a small object inside a larger one is scored at the container's level plus half its own).
+    PSNR and SSIM use the truth's `intensity_range`.
     """
     if recon.shape != truth.shape:
         raise ValueError(f"recon shape {recon.shape} differs from truth shape {truth.shape}")
@@ -73,12 +81,16 @@ def frame_metrics(recon: np.ndarray, truth: np.ndarray, level: float) -> FrameMe
     window = min(SSIM_WINDOW, side if side % 2 else side - 1)
     ssim = np.array([structural_similarity(t, r, data_range=span, win_size=window) if window >= 3 else np.nan
                      for t, r in zip(truth, recon)])
-    return FrameMetrics(mse, nrmse, psnr, ssim, dice(recon >= level, truth >= level), span, mse_bar(span))
+    levels = tuple(float(v) for v in object_levels)
+    at_levels = np.array([dice(recon >= v, truth >= v) for v in levels]).reshape(len(levels), len(truth))
+    return FrameMetrics(mse, nrmse, psnr, ssim, dice(recon >= level, truth >= level), span, mse_bar(span), levels,
+                        at_levels)
 
 
 def summarise(m: FrameMetrics) -> dict:
     """Median and IQR of MSE and Dice, medians of NRMSE, PSNR and SSIM, and the share of good frames
-    (MSE below ``mse_good_below``, Dice > 0.85) of one method; per-frame values under ``per_frame``.
+    (MSE below ``mse_good_below``, Dice > 0.85) of one method; per-frame values under ``per_frame``;
+    under ``objects``, each object's level and median Dice there (per frame: ``per_frame.object_dice``).
     The key ``share_mse_lt_0.005`` keeps its name: 0.005 is now relative (`mse_bar`)."""
 
     def stats(v: np.ndarray) -> tuple[float, list[float]]:
@@ -99,13 +111,19 @@ def summarise(m: FrameMetrics) -> dict:
         "mse_good_below": m.mse_good_below,
         "share_mse_lt_0.005": float(np.mean(m.mse < m.mse_good_below)),
         "share_dice_gt_0.85": float(np.mean(m.dice > DICE_GOOD)),
-        "per_frame": {name: getattr(m, name).tolist() for name in ("mse", "nrmse", "psnr", "ssim", "dice")},
+        "objects": [{"level": v, "median_dice": float(np.median(d))} for v, d in zip(m.object_levels, m.object_dice)],
+        "per_frame": {name: getattr(m, name).tolist()
+                      for name in ("mse", "nrmse", "psnr", "ssim", "dice", "object_dice")},
     }
 
 
 def quality_line(s: dict) -> str:
-    """One method's summary for people, 3 significant digits: Dice, MSE, NRMSE, PSNR, SSIM, good frames."""
+    """One method's summary for people, 3 significant digits: Dice, MSE, NRMSE, PSNR, SSIM, good frames,
+    and Dice at each object's own level when there are several objects."""
+    objects = s.get("objects", [])
+    at_levels = "; at the objects' own levels " + ", ".join(
+        f"{o['level']:.3g}: Dice {o['median_dice']:.3g}" for o in objects) if len(objects) > 1 else ""
     return (f"median Dice {s['median_dice']:.3g}, MSE {s['median_mse']:.3g} (intensity unit²), "
             f"NRMSE {s['median_nrmse']:.3g}, PSNR {s['median_psnr']:.3g} dB, SSIM {s['median_ssim']:.3g}; "
             f"frames with Dice > {DICE_GOOD}: {100 * s['share_dice_gt_0.85']:.0f} %, with MSE < "
-            f"{s['mse_good_below']:.3g}: {100 * s['share_mse_lt_0.005']:.0f} %")
+            f"{s['mse_good_below']:.3g}: {100 * s['share_mse_lt_0.005']:.0f} %{at_levels}")

@@ -1,7 +1,7 @@
 """How a run ended, as its folder tells: ``status.json`` and, for a finished run, ``metrics.json``.
 
 Read alike by `nct.analysis.jobs` (every job of a sweep) and `nct.analysis.benchmarking` (each benchmark run). The
-files are those `nct.run.pipeline.run_job` writes (docs/ARCHITECTURE.md); a missing or unreadable one
+files are those `nct.run.job.run_job` writes (docs/ARCHITECTURE.md); a missing or unreadable one
 is an outcome too, with the reason as its error, never an exception.
 """
 

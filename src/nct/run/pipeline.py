@@ -1,20 +1,14 @@
 """One run, end to end: data -> FBP -> NeuralCT -> metrics -> files and TensorBoard.
 
-The run folder (see docs/ARCHITECTURE.md) always gets ``status.json``; a run that fails
-records its error there and leaves every other run's folder untouched.
+`nct.run.job.run_job` validates the config, records the run's status and calls `run`.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import math
-import platform
 import time
-import traceback
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -23,13 +17,13 @@ from omegaconf import DictConfig
 from nct.acquisition.io import load_sinogram, save_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
-from nct.errors import DivergenceError, InputError, MethodError
 from nct.physics.projector import fbp_frames
 from nct.run import export
-from nct.run.config import FileConf, NCTConf, RunSize, check_memory, validate
+from nct.run.config import FileConf, NCTConf, RunSize, check_memory
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.determinacy import determinacy_warnings, motion_determinacy
-from nct.run.metrics import FrameMetrics, frame_metrics, quality_line, summarise
+from nct.run.job import read_status
+from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
     run_hparams,
@@ -80,7 +74,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
     frame_times = scanner.frame_times(conf.image.frames_per_rotation)
     sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
-    return Acquisition(sino, grid, frame_times, len(phantom.intensities))
+    return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
 
 def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict, list]:
@@ -110,12 +104,14 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
     run's warnings (`determinacy_warnings`, `geometry_warnings`, `suspect_fit`)."""
-    import lightning
     import torch
 
     if conf.threads is not None:
         torch.set_num_threads(conf.threads)
-    lightning.seed_everything(conf.seed, workers=True, verbose=False)
+    if conf.method == "nct":  # FBP draws no global random numbers (lazy: Lightning is ~3 s of start-up)
+        import lightning
+
+        lightning.seed_everything(conf.seed, workers=True, verbose=False)
     rng = np.random.default_rng(conf.seed)
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
@@ -130,7 +126,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     scored: dict[str, FrameMetrics] = {}
     if acq.sino.truth is not None:
         truth = acq.sino.truth
-        scored = {name: frame_metrics(f, truth.frames, truth.level) for name, f in frames.items()}
+        scored = {name: frame_metrics(f, truth.frames, truth.level, truth.levels) for name, f in frames.items()}
         result.update({name: summarise(m) for name, m in scored.items()})
         if trace:
             result["trace"] = score_trace(trace, truth.frames, truth.level)
@@ -213,103 +209,3 @@ def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarra
     overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
     write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
     write_frames(out_dir / "tb", _shown(acq, frames))
-
-
-def _write_json(path: Path, payload: dict) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(payload, indent=2))
-    tmp.replace(path)
-
-
-def read_status(out_dir: Path) -> dict | None:
-    """The run's status.json, or None when the folder has none (never started)."""
-    path = out_dir / "status.json"
-    return json.loads(path.read_text()) if path.is_file() else None
-
-
-IGNORED_OVERRIDES = ("resume=", "hydra.")
-PACKAGES = ("nct", "torch", "numpy", "scipy", "scikit-image", "scikit-learn", "lightning", "hydra-core")
-
-
-def environment() -> dict[str, str]:
-    """Python's and the numerical packages' versions: the same seed gives the same metrics only
-    with the same versions (a solver or a random stream can change between releases)."""
-    def version(name: str) -> str:
-        try:
-            return metadata.version(name)
-        except metadata.PackageNotFoundError:  # e.g. nct run from a source tree that was never installed
-            return "not installed"
-
-    return {"python": platform.python_version(), **{name: version(name) for name in PACKAGES}}
-
-
-def _settings(overrides: list[str] | None) -> list[str]:
-    """The overrides that define a job's result (not ``resume`` or Hydra's own), sorted."""
-    return sorted(o for o in overrides or [] if not o.startswith(IGNORED_OVERRIDES))
-
-
-def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
-            started: float | None = None) -> float | None:
-    """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
-
-    ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
-    skips a finished folder only when it was made with the same settings. ``started``: when the
-    job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
-    the start of its one wall time, which the log, status.json and metrics.json give alike.
-    status.json's ``warnings``: motion the data do not determine (`determinacy_warnings`), a geometry
-    the views contradict (`geometry_warnings`) and why the fit is suspect (`suspect_fit`), empty
-    when nothing says so.
-    """
-    started = time.perf_counter() if started is None else started
-    out_dir.mkdir(parents=True, exist_ok=True)
-    settings = _settings(overrides)
-    versions = environment()
-
-    def record(status: str, error: str | None = None, wall: float | None = None, warnings: Sequence[str] = (),
-               **extra) -> None:
-        _write_json(out_dir / "status.json", {
-            "status": status, "error": error, "overrides": settings,
-            "wall_time_s": time.perf_counter() - started if wall is None else wall,
-            "warnings": list(warnings), "environment": versions, **extra})
-
-    previous = read_status(out_dir)
-    try:
-        conf = validate(cfg)
-        if previous is not None and previous.get("status") == "ok":
-            if not conf.resume:
-                raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
-                                 "or choose another output folder")
-    except InputError as err:
-        if previous is None or previous.get("status") != "ok":
-            record("failed", f"InputError: {err}")
-        raise
-    if conf.resume and previous is not None and previous.get("overrides") != settings:
-        # Left as it is: that run's record and checkpoints belong to its own settings.
-        raise InputError(f"resume: {out_dir} holds a run with other settings ({previous.get('overrides')}), "
-                         f"not {settings}: it cannot continue this one; use a new folder")
-    if conf.resume and previous is not None and previous.get("status") == "ok":
-        log.info("resume: %s already finished, skipped", out_dir)
-        return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
-    record("running")
-    try:
-        result, warnings = run(conf, cfg, out_dir, started)
-    except MethodError as err:  # expected: the reason is the whole story
-        record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}")
-        raise
-    except BaseException as err:
-        record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
-        raise
-    _write_json(out_dir / "metrics.json", result)
-    record("ok", wall=result["wall_time_s"], warnings=warnings)
-    _log_summary(result, warnings, out_dir)
-    return result.get("heldout_loss")
-
-
-def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
-    for name in ("fbp", "nct"):
-        if name in result:
-            log.info("%s: %s", name.upper(), quality_line(result[name]))
-    for line in warnings:
-        log.warning("%s", line)
-    log.info("wall time %.1f s (as in status.json and metrics.json); outputs in %s",
-             result["wall_time_s"], out_dir)

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nct.acquisition.scanner import ImageGrid
 from nct.scenes.shapes import (
+    EllipseGradients,
     EllipseParams,
     EllipsePhantom,
     LetterPhantom,
@@ -23,6 +25,7 @@ from nct.scenes.shapes import (
 )
 
 FOV_RADIUS = 0.5  # inscribed circle of the unit field of view: objects must stay inside
+SIGN_CHECK_SIZE = 48  # a composed scene with negative or graded objects is checked >= 0 on this raster
 WAVEFORMS = ("sinusoidal", "physiological")
 
 
@@ -52,7 +55,9 @@ class Signal:
 @dataclass
 class EllipseConf:
     """One ellipse of a composed scene: centre (x, y) and semi-axes a (along the ellipse's own x
-    axis) and b as fractions of the FOV side, rotation ``angle_deg`` counter-clockwise, intensity."""
+    axis) and b as fractions of the FOV side, rotation ``angle_deg`` counter-clockwise, intensity
+    at its centre (negative: darkens what it lies in, e.g. a lung in a body), and its change per FOV
+    side along x and y (``gradient_x``, ``gradient_y``: a graded ellipse, still projected exactly)."""
 
     x: Signal = field(default_factory=Signal)
     y: Signal = field(default_factory=Signal)
@@ -60,9 +65,12 @@ class EllipseConf:
     b: Signal = field(default_factory=lambda: Signal(value=0.1))
     angle_deg: Signal = field(default_factory=Signal)
     intensity: Signal = field(default_factory=lambda: Signal(value=1.0))
+    gradient_x: Signal = field(default_factory=Signal)
+    gradient_y: Signal = field(default_factory=Signal)
 
 
 _KEYS = ("x", "y", "a", "b", "angle_deg", "intensity")
+_GRADIENT_KEYS = ("gradient_x", "gradient_y")
 
 
 def _signal_params(objects: list[EllipseConf]) -> EllipseParams:
@@ -75,6 +83,21 @@ def _signal_params(objects: list[EllipseConf]) -> EllipseParams:
         return out
 
     return params
+
+
+def _signal_gradients(objects: list[EllipseConf]) -> EllipseGradients:
+    """Intensity gradients from Signals: τ [T] -> [T, K, 2] (per FOV side along x, y)."""
+
+    def gradients(tau: np.ndarray) -> np.ndarray:
+        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
+        return np.stack([np.stack([getattr(o, k).at(tau) for k in _GRADIENT_KEYS], axis=-1) for o in objects], axis=1)
+
+    return gradients
+
+
+def _ellipse_phantom(objects: list[EllipseConf], rotation_time: float) -> EllipsePhantom:
+    return EllipsePhantom(_signal_params(objects), tuple(float(o.intensity.value) for o in objects), rotation_time,
+                          _signal_gradients(objects))
 
 
 @dataclass
@@ -197,7 +220,8 @@ def _default_composed() -> list[EllipseConf]:
 @dataclass
 class ComposedConf:
     """A scene written in config: ellipses whose every parameter is a `Signal` of time.
-    Overlapping objects add their intensities; ``rotations`` is the span checked to stay in the FOV."""
+    Overlapping objects add their intensities, which must sum to >= 0 everywhere; ``rotations`` is
+    the span checked to stay in the FOV (and non-negative)."""
 
     name: str = "composed"
     objects: list[EllipseConf] = field(default_factory=_default_composed)
@@ -206,17 +230,28 @@ class ComposedConf:
     def __post_init__(self) -> None:
         _require(len(self.objects) >= 1, "objects", "a non-empty list", len(self.objects))
         _require(self.rotations > 0, "rotations", "> 0", self.rotations)
-        max_cycles = max(abs(getattr(o, k).cycles_per_rotation) for o in self.objects for k in _KEYS)
+        keys = _KEYS + _GRADIENT_KEYS
+        max_cycles = max(abs(getattr(o, k).cycles_per_rotation) for o in self.objects for k in keys)
         tau = np.linspace(0.0, self.rotations, int(64 * (1 + max_cycles) * self.rotations) + 2)
         params = _signal_params(self.objects)(tau)
         for k, obj in enumerate(params.transpose(1, 0, 2)):
-            for col, key in ((2, "a"), (3, "b"), (5, "intensity")):
+            for col, key in ((2, "a"), (3, "b")):
                 low = float(obj[:, col].min())
                 _require(low > 0, f"objects[{k}].{key}", "> 0 throughout the scan", f"{low:.4g}")
+            low, high = float(obj[:, 5].min()), float(obj[:, 5].max())
+            _require(low > 0 or high < 0, f"objects[{k}].intensity", "of one sign and never 0 throughout the scan",
+                     f"{low:.4g} to {high:.4g}")
             reach = float((np.hypot(obj[:, 0], obj[:, 1]) + np.maximum(obj[:, 2], obj[:, 3])).max())
             _require(reach <= FOV_RADIUS, f"objects[{k}]",
                      f"inside the FOV's inscribed circle (|centre| + max(a, b) <= {FOV_RADIUS}) throughout the scan",
                      f"{reach:.4g}")
+        if (params[..., 5] < 0).any() or any(getattr(o, k) != Signal() for o in self.objects for k in _GRADIENT_KEYS):
+            coarse = tau[::4]  # 16 times a cycle
+            scene = _ellipse_phantom(self.objects, 1.0)
+            lowest = scene.values(coarse, *ImageGrid(SIGN_CHECK_SIZE).xy()).min(axis=(1, 2))
+            low, when = float(lowest.min()), float(coarse[np.argmin(lowest)])
+            _require(low >= 0, "objects", "intensities that sum to >= 0 everywhere throughout the scan (a "
+                     "negative object inside brighter ones)", f"{low:.4g} at {when:.3g} rotations")
 
     def ellipse_objects(self) -> list[EllipseConf]:
         return list(self.objects)
@@ -268,7 +303,5 @@ def build_phantom(conf: PhantomConf, rotation_time: float) -> Phantom:
     if isinstance(conf, HeartConf):
         return EllipsePhantom(_heart_params(conf), (float(conf.intensity),), rotation_time)
     if isinstance(conf, (CircleConf, StaticConf, ComposedConf)):
-        objects = conf.ellipse_objects()
-        return EllipsePhantom(_signal_params(objects), tuple(float(o.intensity.value) for o in objects),
-                              rotation_time)
+        return _ellipse_phantom(conf.ellipse_objects(), rotation_time)
     raise ValueError(f"phantom must be one of circle, heart, letters, static, composed, got {type(conf).__name__}")

@@ -37,14 +37,16 @@ def add_poisson_noise(values: np.ndarray, noise_i0: float, extent: float, rng: n
 def simulate(phantom: Phantom, scanner: Scanner, grid: ImageGrid, frame_times: np.ndarray,
              noise_i0: float | None, rng: np.random.Generator) -> Sinogram:
     """Acquire ``phantom`` with ``scanner`` (each view at its own time) and attach the truth:
-    frames [F, H, W] on ``grid`` at ``frame_times`` [F] s, Dice level half the faintest object."""
+    frames [F, H, W] on ``grid`` at ``frame_times`` [F] s, each object's own level (`Phantom.levels`)
+    and the Dice level, the lowest of a positive object's (half the faintest object, when apart)."""
     frame_times = np.asarray(frame_times, dtype=np.float64)
     if frame_times.ndim != 1 or frame_times.size == 0 or not np.isfinite(frame_times).all():
         raise ValueError(f"frame_times must be a non-empty 1-D array of finite times, got shape {frame_times.shape}")
     values = phantom.project(scanner, grid)
     if noise_i0 is not None:
         values = add_poisson_noise(values, noise_i0, grid.extent, rng)
+    levels = phantom.levels(frame_times)
     truth = Truth(frames=phantom.frames(frame_times, grid), times=frame_times, extent=grid.extent,
-                  level=0.5 * min(phantom.intensities))
+                  level=min(v for v, i in zip(levels, phantom.intensities) if i > 0), levels=levels)
     return Sinogram(values=values, angles=scanner.angles, times=scanner.times, geometry=scanner.geometry, truth=truth,
                     i0=noise_i0, attenuation=attenuation_scale(grid.extent))
