@@ -73,7 +73,7 @@ class Config:
 
 def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]:
     """FBP, then NeuralCT of increasing budget (steps x the defaults, field size), the explicit grid
-    family (half and full steps) and the automatic capacity choice (grid and default family), then the paper's model
+    family (half and full steps) and the motion ladder chosen from the data (grid and default family), then the paper's model
     (with refinement, as in the paper) at a tenth of ``paper_steps`` and at ``paper_steps`` steps per
     stage, first seed only: its time, extrapolated to the paper's steps, is the point."""
     factors = (0.1, 0.25) if quick else (0.25, 0.5, 1.0, 2.0)
@@ -81,8 +81,8 @@ def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]
               for f in factors]
     small = [] if quick else [Config("nct-small", "nct", ("model=siren_small",))]
     grids = [Config("grid-x0.5", "nct", ("model=grid", *scaled_steps(defaults, 0.5))),
-             Config("grid", "nct", ("model=grid",)), Config("grid-auto", "nct", ("model=grid", "capacity=auto")),
-             Config("nct-auto", "nct", ("capacity=auto",))]
+             Config("grid", "nct", ("model=grid",)), Config("grid-auto", "nct", ("model=grid", "motion=auto")),
+             Config("nct-auto", "nct", ("motion=auto",))]
 
     def paper(steps: int, **kw) -> Config:
         return Config(f"paper-{steps}steps", "nct", ("model=paper", "optim.refine=true",
@@ -114,7 +114,7 @@ def summarise(records: Sequence[Record], cfgs: Sequence[Config]) -> list[dict]:
                "dice_median": stats.median, "dice_min": stats.min, "dice_max": stats.max,
                "mse_median": median_ok(recs, "mse"), "run_time_s": median_ok(recs, "run_time_s"),
                "wall_time_s": median_ok(recs, "wall_time_s"), "peak_mem_mib": median_ok(recs, "peak_mem_mib"),
-               "n_params": median_ok(recs, "n_params"), "n_terms": chosen_terms(recs), "reference": config.reference,
+               "n_params": median_ok(recs, "n_params"), "rungs": chosen_rungs(recs), "reference": config.reference,
                "time_extrapolated_s": extrapolated_time(recs, groups.get((scene, config.short), []),
                                                         config.extrapolate_steps)}
         rows.append(row)
@@ -126,9 +126,9 @@ def summarise(records: Sequence[Record], cfgs: Sequence[Config]) -> list[dict]:
     return rows
 
 
-def chosen_terms(records: Sequence[Record]) -> str:
-    """The temporal terms each successful run ended with (``capacity.n_terms``), e.g. "8 8 32"; "" for FBP."""
-    return " ".join(str(r.capacity["n_terms"]) for r in records if not r.failed and "n_terms" in r.capacity)
+def chosen_rungs(records: Sequence[Record]) -> str:
+    """The motion rung each successful run chose (``model.motion``), e.g. "rigid rigid free"; "" for FBP."""
+    return " ".join(str(r.model["motion"]) for r in records if not r.failed and "motion" in r.model)
 
 
 def extrapolated_time(records: Sequence[Record], short: Sequence[Record], steps: int | None) -> float:
@@ -222,7 +222,7 @@ def plot_params_vs_accuracy(rows: Sequence[dict], path: Path) -> Path:
     for config, marker in markers.items():
         ax.plot([], [], marker, color="k", mfc="none", label=config)
     if not shown:
-        ax.text(0.5, 0.5, "no parameter counts reported\n(metrics.json capacity.n_params)", ha="center",
+        ax.text(0.5, 0.5, "no parameter counts reported\n(metrics.json model.n_params)", ha="center",
                 transform=ax.transAxes)
     else:
         ax.set_xscale("log")
@@ -240,13 +240,13 @@ def report(rows: Sequence[dict], head: dict, command: str, elapsed_s: float) -> 
     """The markdown note: headline, then one table row per scene and configuration."""
     table = markdown_table(
         ["scene", "config", "ok/runs", "Dice median [min–max]", "MSE median", "run time s", "process s",
-         "peak MiB", "params", "terms", "Pareto"],
+         "peak MiB", "params", "motion", "Pareto"],
         [[r["scene"], r["config"], f"{r['runs'] - r['failed']}/{r['runs']}",
           f"{r['dice_median']:.3f} [{r['dice_min']:.3f}–{r['dice_max']:.3f}]", r["mse_median"],
           r["run_time_s"] if not math.isfinite(r["time_extrapolated_s"])
           else f"{r['run_time_s']:.3g} (extrapolated {r['time_extrapolated_s']:.0f})",
           r["wall_time_s"], r["peak_mem_mib"], "–" if math.isnan(r["n_params"]) else f"{r['n_params']:.0f}",
-          r["n_terms"] or "–", "yes" if r["pareto"] else ""] for r in rows])
+          r["rungs"] or "–", "yes" if r["pareto"] else ""] for r in rows])
     ratio = (f"**{head['ratio']:.1f}×**" if math.isfinite(head["ratio"]) else "not available")
     return "\n".join([
         "# Speed against accuracy", "", f"Command: `{command}` (this call: {elapsed_s / 60:.1f} min).", "",
@@ -255,8 +255,8 @@ def report(rows: Sequence[dict], head: dict, command: str, elapsed_s: float) -> 
         f"({head['paper_basis']}); ratio paper / ours {ratio}.", "",
         "Dice: median over seeds of each run's median over frames; a failed or diverged run counts as 0. "
         "Run time: data to metrics inside the run; process: the whole `nct` process. Params: "
-        "`capacity.n_params` of metrics.json (– when not reported; FBP has none). Terms: the temporal Fourier "
-        "terms each seed's run ended with (`capacity=auto` chooses them from held-out views; 0 = static).", "",
+        "`model.n_params` of metrics.json (– when not reported; FBP has none). Motion: the "
+        "motion rung each seed's run chose (`motion=auto` chooses it from held-out views).", "",
         table, ""])
 
 

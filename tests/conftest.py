@@ -49,10 +49,10 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
 from nct.cli import main as cli
 from nct.cli.main import CONFIG_MODULE
-from nct.method.capacity import CapacityConf
 from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
 from nct.method.fields import ModelConf
 from nct.method.reconstruct import reconstruct
+from nct.method.select import SelectionConf
 from nct.scenes.phantoms import (
     CircleConf,
     ComposedConf,
@@ -152,7 +152,7 @@ def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
 
 
 def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None,
-                 capacity: CapacityConf | None = None):
+                 motion: SelectionConf | None = None):
     """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,
     simulated analytically and reconstructed with K = len(objects): (sinogram, times, NCTResult)."""
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
@@ -160,7 +160,7 @@ def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: flo
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
     result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         n_objects=len(objects), optim=optim, init=INIT, capacity=capacity)
+                         n_objects=len(objects), optim=optim, init=INIT, motion=motion)
     return sino, times, result
 
 

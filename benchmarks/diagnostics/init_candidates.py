@@ -1,7 +1,7 @@
 """What the initialisation saw in a sinogram file: Algorithm 1's mixture classes and every candidate
 the sinogram judge scored (``init.levels=sinogram``), best first, with the starts InitFit tries
-(``init.starts``, K >= 2; the run keeps the one its held-out views prefer, with the start race
-``init.race_at``: metrics.json -> init -> start).
+(``init.starts``, K >= 2; each starts a candidate of the run's tournament: selection.csv,
+metrics.json -> init -> start).
 
 A diagnostic for a scene whose objects start wrong (benchmarks/results/generalisation/seed1:
 scene011). The FBP frames and the judge are those of the run itself: ``nct.method.reconstruct.reconstruct``
@@ -22,11 +22,10 @@ from pathlib import Path
 import numpy as np
 from hydra import compose, initialize_config_module
 
-import nct.method.reconstruct
+import nct.method.initialise
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.method import segment as seg
-from nct.method.passes import candidate_starts
 from nct.run.config import validate
 from nct.run.pipeline import acquire, reconstruct_all
 
@@ -51,15 +50,15 @@ def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tup
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
-    real = nct.method.reconstruct.segmentations
-    nct.method.reconstruct.segmentations = catch
+    real = nct.method.initialise.segmentations
+    nct.method.initialise.segmentations = catch
     try:
         with tempfile.TemporaryDirectory() as tmp:
             reconstruct_all(conf, acq, Path(tmp))
     except _Caught as caught:
         frames, k, rng, kappa, share, route, judge = caught.args_
     finally:
-        nct.method.reconstruct.segmentations = real
+        nct.method.initialise.segmentations = real
     return frames, k, rng, kappa, share, route, judge, conf.init.starts
 
 
@@ -85,12 +84,11 @@ def main() -> None:
         for c in ranked:
             print(f"  route {c.route}, background {c.background:.3f}: judge misfit {c.misfit:.4f}, "
                   f"a(k) {np.round(c.intensities, 3)}, pixels per frame {np.round(c.masks.sum(axis=(0, 2, 3)) / len(c.masks), 1)}")
-    tried = candidate_starts(ranked, k, starts)
+    tried = ranked[:starts] if k > 1 else ranked[:1]  # initialise.find_starts's rule
     for n, start in enumerate(tried):
-        print(f"InitFit start {n}: route {start.route}, a(k) {np.round(start.intensities, 3)}, judge misfit {start.misfit}")
+        print(f"start {n}: route {start.route}, a(k) {np.round(start.intensities, 3)}, judge misfit {start.misfit}")
     if len(tried) > 1:
-        print("the sinogram fit continues the start whose field misfits the held-out views least (the leader); the "
-              "other's fit races it (init.race_at) and is kept where it ends lower (metrics.json -> init -> start)")
+        print("each start begins a candidate of the run's tournament (selection.csv; metrics.json -> init -> start)")
 
 
 if __name__ == "__main__":

@@ -74,7 +74,7 @@ def write_run(run_dir: Path, status: str | None, dice: float = 0.9, log: str = "
     if status == "ok":
         summary = {"median_dice": dice, "median_mse": 0.01}
         (run_dir / "metrics.json").write_text(json.dumps(
-            {"fbp": summary, "nct": summary, "wall_time_s": 3.0, "capacity": {"n_params": 1234}}))
+            {"fbp": summary, "nct": summary, "wall_time_s": 3.0, "model": {"n_params": 1234}}))
     return run_dir
 
 
@@ -127,7 +127,7 @@ def test_speed_configs_follow_the_configured_steps(tmp_path):
     cfgs = {c.name: c for c in speed.configs(defaults, quick=False, paper_steps=100)}
     assert list(cfgs) == ["fbp", "nct-x0.25", "nct-x0.5", "nct-default", "nct-x2", "nct-small", "grid-x0.5", "grid",
                           "grid-auto", "nct-auto", "paper-10steps", "paper-100steps"]
-    assert cfgs["grid-auto"].overrides == ("model=grid", "capacity=auto")
+    assert cfgs["grid-auto"].overrides == ("model=grid", "motion=auto")
     assert cfgs["grid-x0.5"].overrides[:3] == ("model=grid", "optim.init_steps=150", "optim.fit_steps=400")
     assert cfgs["nct-x0.25"].overrides == (
         "optim.init_steps=75", "optim.fit_steps=200", "optim.refine_init_steps=50",

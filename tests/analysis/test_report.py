@@ -14,7 +14,12 @@ from omegaconf import OmegaConf
 
 from nct.analysis.jobs import Job, collect_jobs, flatten_metrics, planned_overrides
 from nct.analysis.report import write_report
-from nct.analysis.report_figures import aggregate, figures, heldout_vs_dice_figure, tv_grid
+from nct.analysis.report_figures import (
+    aggregate,
+    figures,
+    heldout_vs_dice_figure,
+    tv_grid,
+)
 from nct.cli.report import main
 from tests.conftest import figure_problems
 
@@ -54,7 +59,8 @@ def make_job(sweep: Path, num: int, overrides: list[str], status: dict | None, m
 
 def ok_metrics(nct_dice: float, fbp_dice: float, wall: float) -> dict:
     return {"fbp": summary(fbp_dice, 0.02), "nct": summary(nct_dice, 0.002), "wall_time_s": wall,
-            "heldout_loss": 1.0 - nct_dice, "capacity": {"parameters": 1234}, "times": [0.0, 0.1]}
+            "heldout_loss": 1.0 - nct_dice, "model": {"n_params": 1234}, "selection": {"rung": "rigid"},
+            "times": [0.0, 0.1]}
 
 
 @pytest.fixture
@@ -92,7 +98,7 @@ def test_report_lists_every_job_with_status_error_and_metrics(displacement_sweep
     assert float(rows[4]["fbp.median_dice"]) == pytest.approx(0.51)
     assert float(rows[4]["nct.iqr_dice_q25"]) == pytest.approx(0.76)
     assert float(rows[4]["heldout_loss"]) == pytest.approx(0.19)
-    assert float(rows[4]["capacity.parameters"]) == 1234
+    assert float(rows[4]["model.n_params"]) == 1234 and rows[4]["selection.rung"] == "rigid"
     assert float(rows[6]["wall_time_s"]) == 3.0 and rows[6]["nct.median_dice"] == ""
     assert not any(k.startswith("nct.per_frame") or k == "times" for k in rows[0])
     assert set(report.plots) == {"displacement", "accuracy_vs_time", "heldout_vs_dice"}
@@ -113,8 +119,8 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     assert "9 jobs: 1 failed, 1 missing, 6 ok, 1 unfinished." in text
     assert "| 0 | 3 | 0.66 ± 0.01 | 0.96 ± 0.01 |" in text
     assert ("| job | phantom.displacement_deg | seed | status | FBP Dice | NCT Dice | FBP MSE | NCT MSE | FBP PSNR dB "
-            "| NCT PSNR dB | FBP SSIM | NCT SSIM | held-out loss | wall s |") in text
-    assert "| 0 | 0 | 0 | ok | 0.65 | 0.95 | 0.02 | 0.002 | 17 | 27 | 0.9 | 0.9 | 0.05 | 10 |" in text
+            "| NCT PSNR dB | FBP SSIM | NCT SSIM | held-out loss | rung chosen | wall s |") in text
+    assert "| 0 | 0 | 0 | ok | 0.65 | 0.95 | 0.02 | 0.002 | 17 | 27 | 0.9 | 0.9 | 0.05 | rigid | 10 |" in text
     assert "- job 6 (phantom.displacement_deg=200 seed=0): **failed**: RuntimeError: boom" in text
     assert "second line" not in text
     assert "- job 7 (phantom.displacement_deg=200 seed=1): **unfinished**" in text

@@ -24,8 +24,8 @@ from nct.acquisition.io import save_sinogram
 from nct.acquisition.sinogram import Sinogram
 from nct.analysis.jobs import planned_overrides
 from nct.analysis.report import write_report
-from nct.cli.report import main as report_main
 from nct.cli.main import CONFIG_MODULE
+from nct.cli.report import main as report_main
 from nct.errors import InputError
 from tests.conftest import compose_config
 

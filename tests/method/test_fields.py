@@ -26,20 +26,6 @@ def test_shapes():
     assert f.sdf(c, t).shape == (3, 2, 50) and f.sdf_rate(c, t).shape == (3, 2, 50)
 
 
-def test_an_object_made_static_keeps_its_shape_at_that_time():
-    f = field(n_terms=5)
-    c = f.coefficients(XY)
-    t = torch.tensor([0.0, 0.3, 0.9])
-    before = f.sdf(c, t)
-    f.set_static(torch.tensor([True, False]), at=0.3)
-    after = f.sdf(c, t)
-    for i in range(3):
-        torch.testing.assert_close(after[i, 0], before[1, 0])  # object 0: its g at t = 0.3, at every time
-    torch.testing.assert_close(after[:, 1], before[:, 1])
-    assert f.sdf_rate(c, t)[:, 0].abs().max() == 0 and f.sdf_rate(c, t)[:, 1].abs().max() > 0
-    assert f.describe()["static_objects"] == [0] and not f.describe()["static"]
-
-
 def test_sdf_is_static_plus_fourier_series():
     """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t)."""
     f = field(n_terms=4)

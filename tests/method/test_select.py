@@ -25,20 +25,35 @@ def test_the_schedule_doubles_from_the_first_budget_on_the_checks():
 
 def test_the_first_candidate_is_never_stopped():
     t = Tournament(1000, 100, CONF)
-    assert not t.stops()(history([9.0, 9.0, 9.0]))
+    assert not t.stops(FREE)(history([9.0, 9.0, 9.0]))
 
 
-def test_a_fit_behind_the_best_at_a_rung_stops_there_and_is_pruned():
+def test_a_simpler_fit_stops_at_a_milestone_only_beyond_the_tolerance():
+    t = Tournament(1000, 100, CONF)
+    t.record(FREE, history([1.0] * 10), 1000, 1.0)
+    stops = t.stops(STATIC)
+    assert not stops(history([1.2]))  # step 100: before the first milestone (300)
+    assert not stops(history([1.2, 1.2]))
+    assert stops(history([1.2, 1.2, 1.2]))  # step 300, the first milestone: 20 % behind the freer model
+    assert not stops(history([1.2, 1.2, 1.04]))  # within 5 % of it
+    assert not stops(history([1.2, 1.2, 1.04, 1.5]))  # step 400 is no milestone
+    entry = t.record(STATIC, history([1.2, 1.2, 1.2]), 300, math.nan)
+    assert entry.pruned and "step 300" in entry.pruned
+
+
+def test_a_freer_fit_must_lead_a_simpler_one_by_the_tolerance_to_go_on():
     t = Tournament(1000, 100, CONF)
     t.record(STATIC, history([1.0] * 10), 1000, 1.0)
-    stops = t.stops()
-    assert not stops(history([1.2]))  # step 100: before the first rung (300)
-    assert not stops(history([1.2, 1.2]))
-    assert stops(history([1.2, 1.2, 1.2]))  # step 300, the first rung: 20 % behind
-    assert not stops(history([1.2, 1.2, 1.04]))  # within 5 % of the best at the rung
-    assert not stops(history([1.2, 1.2, 1.04, 1.5]))  # step 400 is no rung
-    entry = t.record(RIGID, history([1.2, 1.2, 1.2]), 300, math.nan)
-    assert entry.pruned and "step 300" in entry.pruned
+    assert t.stops(FREE)(history([0.99, 0.99, 0.99]))  # ahead, but not by 5 %: parsimony keeps static
+    assert not t.stops(FREE)(history([0.9, 0.9, 0.9]))
+
+
+def test_another_start_of_the_same_model_must_lead_to_go_on():
+    t = Tournament(1000, 100, CONF)
+    t.record(FREE, history([1.0] * 10), 1000, 1.0)
+    other = Candidate("free_start1", "free", FREE.simplicity, 1)
+    assert t.stops(other)(history([1.01, 1.01, 1.01]))
+    assert not t.stops(other)(history([0.99, 0.99, 0.99]))
 
 
 def test_parsimony_keeps_the_simplest_within_tolerance():
@@ -72,8 +87,9 @@ def test_no_finished_candidate_is_an_error():
         Tournament(10, 100, CONF).verdict()
 
 
-@pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "select.rungs"), ({"first_budget": 0}, "first_budget"),
-                                         ({"tolerance": 1.0}, "select.tolerance")])
+@pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "motion.rungs"), ({"rungs": ["wobbly"]}, "motion.rungs"),
+                                         ({"rungs": ["free", "free"]}, "motion.rungs"),
+                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": -0.1}, "motion.tolerance"), ({"band_f_max": 0.0}, "motion.band_f_max")])
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)

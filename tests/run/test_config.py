@@ -49,10 +49,10 @@ def test_method_groups_keep_the_tuned_defaults():
     r = conf.render
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share, conf.init.starts) == (60, 3, 0.02, 2)
-    assert (conf.init.race_at, conf.init.race_gain) == (0.2, 0.7)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
-    assert not conf.capacity.auto and conf.capacity.static_below_px == 0.0
+    assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance, conf.motion.band_f_max,
+            conf.motion.band_min_rotations) == (["free"], 0.25, 2 / 3, 0.5, 1.5)
 
 
 def test_fast_optim_halves_every_stage_and_its_schedule():
@@ -101,9 +101,9 @@ def test_composition_errors_name_the_key(override, error, words):
         ("data=file", "data.path"),
         ("model.n_terms=-1", "model.n_terms"),
         ("model=grid model.levels=9", "model.resolution must be >= 2**model.levels"),
-        ("capacity.ladder=[8,0]", "capacity.ladder must be strictly increasing"),
-        ("capacity.tolerance=2", "capacity.tolerance"),
-        ("capacity=auto heldout.every=1", "heldout.every must be >= 2"),
+        ("motion.rungs=[free,wobbly]", "motion.rungs must be a non-empty list of static, rigid, affine, free"),
+        ("motion.tolerance=-1", "motion.tolerance"),
+        ("motion=auto heldout.every=1", "heldout.every must be >= 2"),
         ("optim.lr=0", "optim.lr must be > 0"),
         ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),
         ("render.mu=1", "render.mu must be > 2"),
@@ -111,8 +111,6 @@ def test_composition_errors_name_the_key(override, error, words):
         ("init.gmm_share=0", "init.gmm_share must be in (0, 1]"),
         ("init.frames_per_rotation=0", "init.frames_per_rotation must be >= 1"),
         ("init.starts=0", "init.starts must be >= 1"),
-        ("init.race_at=1.5", "init.race_at must be in (0, 1) or null, got 1.5"),
-        ("init.race_gain=0", "init.race_gain must be > 0"),
         ("heldout.every=-1", "heldout.every must be >= 0"),
         ("heldout.run=0", "heldout.run must be >= 1"),
         ("trainer.devices=0", "trainer.devices must be >= 1"),

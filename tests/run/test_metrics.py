@@ -4,7 +4,14 @@ the per-run summary."""
 import numpy as np
 import pytest
 
-from nct.run.metrics import FrameMetrics, dice, frame_metrics, mse_bar, quality_line, summarise
+from nct.run.metrics import (
+    FrameMetrics,
+    dice,
+    frame_metrics,
+    mse_bar,
+    quality_line,
+    summarise,
+)
 
 
 def test_dice_known_values():

@@ -182,24 +182,24 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
     (killed / "status.json").write_text(json.dumps(status | {"status": "running"}))
     run_job(tiny_cfg(*steps, "resume=true"), killed, list(steps))
     stages = read(killed / "metrics.json")["stages"]
-    assert stages["init"]["resumed"] and stages["fit"]["resumed"]
+    assert stages["free_init"]["resumed"] and stages["free_fit"]["resumed"]
     assert "resumed" not in stages["refine_fit"] and stages["refine_fit"]["steps"] == 5
     np.testing.assert_array_equal(np.load(killed / "reconstruction.npz")["nct"],
                                   np.load(whole / "reconstruction.npz")["nct"])
 
 
 def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path):
-    """A checkpoint written by an older model (here without the per-object static buffers) ends
+    """A checkpoint written by an older model (here without the frequencies buffer) ends
     the resumed run with one named InputError, not a traceback from load_state_dict."""
     steps = QUIET
     run_job(tiny_cfg(*steps), tmp_path, list(steps))
-    ckpt = tmp_path / "checkpoints" / "fit" / "last.ckpt"
+    ckpt = tmp_path / "checkpoints" / "free_fit" / "last.ckpt"
     saved = torch.load(ckpt, weights_only=True)
-    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if not k.endswith("moving")}
+    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if not k.endswith("omega")}
     torch.save(saved, ckpt)
     (tmp_path / "metrics.json").unlink()
     (tmp_path / "status.json").write_text(json.dumps(read(tmp_path / "status.json") | {"status": "running"}))
-    with pytest.raises(InputError, match=r"resume: the checkpoint of stage fit .* does not fit this version's model"):
+    with pytest.raises(InputError, match=r"resume: the checkpoint of stage free_fit .* does not fit this version's model"):
         run_job(tiny_cfg(*steps, "resume=true"), tmp_path, list(steps))
 
 
@@ -207,16 +207,15 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     """trainer.snapshot_every_n_steps keeps the field every n steps of each stage; after the run each
     snapshot is scored against the truth (trace.csv, trace.png, TensorBoard). The last snapshot is
     the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
-    steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false",
-             "capacity.static_below_px=0")
+    steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false")
     run_job(tiny_cfg(*steps, "export.png=false"), tmp_path / "plain")  # its pictures come after the fit, unread
     run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
     np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
                                   np.load(tmp_path / "plain" / "reconstruction.npz")["nct"])
     metrics = read(tmp_path / "traced" / "metrics.json")
     trace = metrics["trace"]
-    assert [(r["stage"], r["step"]) for r in trace] == [("init", s) for s in (0, 2, 4, 6)] + \
-        [("fit", s) for s in (0, 2, 4, 5)]
+    assert [(r["stage"], r["step"]) for r in trace] == [("free_init", s) for s in (0, 2, 4, 6)] + \
+        [("free_fit", s) for s in (0, 2, 4, 5)]
     seconds = [r["seconds"] for r in trace]
     assert all(b > a for a, b in zip(seconds, seconds[1:])) and seconds[-1] < metrics["wall_time_s"]
     assert trace[-1]["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
@@ -233,19 +232,20 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
     assert [e.value for e in logged] == pytest.approx([r["median_dice"] for r in trace], abs=1e-6)
 
 
-def test_trace_ends_with_the_output_when_objects_are_made_static(tiny_cfg, tmp_path):
-    """The static experiment's objects are held static after the fit (capacity.static_below_px): the
-    trace gains a last point for that field, which is the one output."""
-    run_job(tiny_cfg("experiment=static", "capacity.static_below_px=0.25", "optim.init_steps=80", "optim.fit_steps=80",
-                     "trainer.snapshot_every_n_steps=40", "logger=none", "export.gif=false", "export.tiff=false",
-                     "export.png=false"), tmp_path)
+def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg, tmp_path):
+    """motion.rungs [static, free] on the static experiment: static wins within tolerance; the trace's last
+    point is the winner's output field (a point of its own where another candidate ran after it)."""
+    run_job(tiny_cfg("experiment=static", "motion.rungs=[static,free]", "motion.tolerance=0.5", "optim.init_steps=80",
+                     "optim.fit_steps=80", "trainer.snapshot_every_n_steps=40", "logger=none", "export.gif=false",
+                     "export.tiff=false", "export.png=false"), tmp_path)
     metrics = read(tmp_path / "metrics.json")
-    assert metrics["capacity"]["static"] and "fit_retry1" not in metrics["stages"]
-    *_, fitted, output = metrics["trace"]
-    # The last snapshot is the runner-up start's fit (init.race_at: it races the leader's, here to the end).
-    assert (fitted["stage"], output["stage"]) == ("fit_start1", "output") and output["step"] == fitted["step"] == 80
-    assert output["seconds"] >= fitted["seconds"]
-    assert output["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
+    assert metrics["model"]["motion"] == "static" and metrics["selection"]["winner"].startswith("static")
+    rows = (tmp_path / "selection.csv").read_text().splitlines()
+    assert rows[0] == "candidate,rung,steps,heldout_misfit,verdict" and len(rows) == 1 + len(metrics["selection"]["table"])
+    trace = metrics["trace"]
+    fitted_last = [r["stage"] for r in trace if r["stage"] != "output"][-1]
+    assert trace[-1]["stage"] == ("output" if not fitted_last.startswith("static") else fitted_last)
+    assert trace[-1]["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
 
 
 def test_a_simulation_fits_the_objects_data_n_objects_names(tiny_cfg):

@@ -62,7 +62,7 @@ class Record:
     status: ok | failed | diverged | timeout | invalid (NaN scores) | running (killed mid-run).
     wall_time_s: the whole process (start-up included); run_time_s: the job's own wall time, from the
     process's start to its outputs written (metrics.json ``wall_time_s``). peak_mem_mib: the child's
-    peak resident memory. n_params: from metrics.json ``capacity.n_params`` (0 for FBP, NaN when the
+    peak resident memory. n_params: from metrics.json ``model.n_params`` (0 for FBP, NaN when the
     method does not report it).
     dice, mse: medians over the run's frames. stages: metrics.json ``stages`` (per stage steps, time).
     """
@@ -78,7 +78,7 @@ class Record:
     dice: float = math.nan
     mse: float = math.nan
     stages: dict = field(default_factory=dict)
-    capacity: dict = field(default_factory=dict)
+    model: dict = field(default_factory=dict)
 
     @property
     def failed(self) -> bool:
@@ -109,8 +109,8 @@ def read_run(run_dir: Path, method: str) -> dict:
         return {"status": "invalid", "error": f"metrics.json has no '{method}' summary (no ground truth?)"}
     out = {"status": "ok", "error": None, "run_time_s": float(metrics.get("wall_time_s", math.nan)),
            "dice": float(summary["median_dice"]), "mse": float(summary["median_mse"]),
-           "stages": metrics.get("stages") or {}, "capacity": metrics.get("capacity") or {},
-           "n_params": 0.0 if method == "fbp" else float((metrics.get("capacity") or {}).get("n_params", math.nan))}
+           "stages": metrics.get("stages") or {}, "model": metrics.get("model") or {},
+           "n_params": 0.0 if method == "fbp" else float((metrics.get("model") or {}).get("n_params", math.nan))}
     if not (math.isfinite(out["dice"]) and math.isfinite(out["mse"])):
         out.update(status="invalid", error=f"non-finite scores: Dice {out['dice']}, MSE {out['mse']}")
     return out

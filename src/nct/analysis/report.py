@@ -116,10 +116,10 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
         lines += [f"## NCT median Dice on the TV grid ({spread(counts.ravel(), 'mean')}; rows: TV space, "
                   "columns: TV time)", "", _tv_table(jobs), ""]
     header = ["job", *varying, "status", *(f"{m.upper()} {name}" for _, name in JOB_STATS for m in METHODS),
-              "held-out loss", "wall s"]
+              "held-out loss", "rung chosen", "wall s"]
     rows = [[str(j.num), *(short_value(j.overrides.get(k, "")) for k in varying), j.status,
              *(j.metric(f"{m}.{s}") for s, _ in JOB_STATS for m in METHODS),
-             fmt(j.metric("heldout_loss"), 4), j.wall_time_s] for j in jobs]
+             fmt(j.metric("heldout_loss"), 4), str(j.metrics.get("selection.rung", "")), j.wall_time_s] for j in jobs]
     lines += ["## Jobs", "", markdown_table(header, rows), ""]
     broken = [j for j in jobs if j.status != FINISHED or j.error]
     lines += ["## Failed, diverged, unfinished or missing", ""]

@@ -25,12 +25,18 @@ class ModelConf:
     """The neural SDF field (config group ``model``).
 
     name: the group option. family: "siren" (SIREN static net + SIREN coefficient net) or "grid"
-    (explicit grids, see ``GridField``).
+    (explicit grids, see ``GridField``); for the rigid and affine rungs, the template's (motion.py).
+    The rung itself is chosen per run by the config group ``motion`` (select.py).
+    pose_terms_per_rotation: rigid, affine: Legendre polynomials over the scan per rotation of it
+        (at least 2) in each pose parameter's series in time: few, so the poses stay smooth and
+        leave little room for the motion along the rays that no view sees (motion.py).
     width, depth: hidden width and number of hidden layers of the static net g_E (siren).
     temporal_width, temporal_depth: the same for the coefficient net of g_V (siren).
     resolution: cells per side of the finest static grid (grid); levels: grids per part, each
     half the resolution of the one before, summed (grid). temporal_resolution: cells per side of
-    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse.
+    the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse. A moved
+    template spans twice the field of view: on grids of twice these cells per side (grid), or a
+    SIREN rendered on resolution x resolution points (siren; motion.py).
     n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
     f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
         rotation (time is measured in rotations from the first view). Keep it well below 1: a
@@ -42,6 +48,7 @@ class ModelConf:
 
     name: str = "siren"
     family: str = "siren"
+    pose_terms_per_rotation: float = 4.0
     width: int = 64
     depth: int = 3
     temporal_width: int = 64
@@ -55,6 +62,7 @@ class ModelConf:
 
     def __post_init__(self) -> None:
         require(self.family in FAMILIES, "model.family", f"one of {FAMILIES}", self.family)
+        require(self.pose_terms_per_rotation > 0, "model.pose_terms_per_rotation", "> 0", self.pose_terms_per_rotation)
         for key in ("width", "depth", "temporal_width", "temporal_depth", "levels"):
             require(getattr(self, key) >= 1, f"model.{key}", ">= 1", getattr(self, key))
         require(self.n_terms >= 0, "model.n_terms", ">= 0", self.n_terms)
@@ -142,10 +150,6 @@ class OptimConf:
     upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
     the field costs (image / coarse)^2 less per step); the refinement uses the image's own
     lattice. null, or not below the image size: the image's lattice throughout.
-    retries: a SinogramFit whose misfit (relative L1 at the final band, on the held-out views or
-    up to 64 fitted ones) ends above where it started has lost its way, e.g. an object dropped
-    out of the band where no gradient reaches it; it is rerun from its InitFit at half the rates,
-    up to this many times, and the best attempt kept.
     """
 
     init_steps: int = 300
@@ -164,15 +168,13 @@ class OptimConf:
     intensity_lr: float = 1e-2
     divergence_factor: float = 20.0
     coarse_size: Optional[int] = 64
-    retries: int = 1
 
     def __post_init__(self) -> None:
         require(self.coarse_size is None or self.coarse_size >= 8, "optim.coarse_size", ">= 8 or null",
                 self.coarse_size)
         for key in ("lr_decay_every", "batch_views"):
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
-        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss",
-                    "retries"):
+        for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):
             require(getattr(self, key) >= 0, f"optim.{key}", ">= 0", getattr(self, key))
         for key in ("lr", "refine_lr", "intensity_lr"):
             require(getattr(self, key) > 0, f"optim.{key}", "> 0", getattr(self, key))
@@ -216,12 +218,9 @@ class InitConf:
     (Algorithm 1, and multi-level Otsu on the foreground where it cannot separate K levels),
     "gmm" (Algorithm 1 only) or "otsu" (segment.py). levels: "sinogram" (every candidate choice
     of levels is judged by how well its masks explain the fitted views, which also give a(k):
-    levels.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, InitFit
-    runs from each of the judge's this many best candidates (method.candidate_starts; 1: the best
-    judged only); the sinogram fit continues the one whose field misfits the held-out views least,
-    the leader. race_at, race_gain: each runner-up's sinogram fit races the leader's (race.py): from
-    this share of its steps it stops at the first held-out check where its loss is above race_gain
-    x the leader's, and one that ends lower than the leader is kept (race_at null: the leader only).
+    judge.py) or "fbp" (Algorithm 1's rule and the FBP levels). starts: with K >= 2, the judge's
+    this many best segmentations each start a candidate of the tournament (initialise.find_starts;
+    1: the best judged only).
     """
 
     frames_per_rotation: int = 60
@@ -230,8 +229,6 @@ class InitConf:
     route: str = "auto"
     levels: str = "sinogram"
     starts: int = 2
-    race_at: Optional[float] = 0.2
-    race_gain: float = 0.7
 
     def __post_init__(self) -> None:
         require(self.route in INIT_ROUTES, "init.route", f"one of {INIT_ROUTES}", self.route)
@@ -240,8 +237,6 @@ class InitConf:
         require(self.kappa >= 0, "init.kappa", ">= 0", self.kappa)
         require(0 < self.gmm_share <= 1, "init.gmm_share", "in (0, 1]", self.gmm_share)
         require(self.starts >= 1, "init.starts", ">= 1", self.starts)
-        require(self.race_at is None or 0 < self.race_at < 1, "init.race_at", "in (0, 1) or null", self.race_at)
-        require(self.race_gain > 0, "init.race_gain", "> 0", self.race_gain)
 
 
 @dataclass

@@ -1,6 +1,8 @@
-"""Signed-distance fields g(x, t) = g_E(x) + g_V(x, t) of K objects (paper Sec. IV-A).
+"""Signed-distance fields g(x, t) of K objects: the interface every rung of the motion ladder
+implements (``SpaceTimeField``), the static rung and the paper's free field g = g_E(x) + g_V(x, t)
+(Sec. IV-A); the rigid and affine rungs are in motion.py.
 
-Time enters only through a Fourier basis, so the spatial parts see x alone: evaluate them once on
+Time enters the free field only through a Fourier basis, so the spatial parts see x alone: evaluate them once on
 the grid and form g(., t) for any number of times by a product with the basis (see ``Field.sdf``).
 Two families hold the spatial parts: SIRENs (the paper's) and explicit multi-resolution grids
 (``GridField``: bilinear lookups instead of a network, several times cheaper per step).
@@ -9,14 +11,18 @@ Two families hold the spatial parts: SIRENs (the paper's) and explicit multi-res
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
+
+if TYPE_CHECKING:
+    from nct.method.motion import Sightings
 
 HIDDEN_OMEGA = 30.0  # SIREN's frequency for hidden layers (Sitzmann et al.); its init compensates
 
@@ -45,39 +51,24 @@ class Siren(nn.Module):
 
 @dataclass
 class Coefficients:
-    """The field's networks evaluated at P points: static [K, P], temporal [2M, K, P] (None if M = 0)."""
+    """The free field's networks evaluated at P points: static [K, P], temporal [2M, K, P] (None if M = 0)."""
 
     static: Tensor
     temporal: Tensor | None
 
 
-class Field(nn.Module):
-    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs;
-    an object made static (`set_static`) keeps the second term at one time.
+class SpaceTimeField(nn.Module):
+    """What the stages use of a field of K objects (every rung of the motion ladder):
+    ``on_lattice(size)`` evaluates what does not depend on time once per step and returns it as an
+    opaque value c; ``sdf(c, t)`` [T, K, P] and ``sdf_rate(c, t)`` [T, K, P] give g and dg/dt (per
+    rotation) at the lattice's P points at times t [T] (rotations). The field also owns each
+    object's intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``), so
+    one checkpoint holds everything that renders the image."""
 
-    x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
-    w_i ~ N(0, f_max) are drawn once from ``generator``. The model also owns each object's
-    intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``), so one
-    checkpoint holds everything that renders the image.
-    """
-
-    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
+    def __init__(self, n_objects: int) -> None:
         super().__init__()
         self.n_objects = n_objects
         self.log_intensities = nn.Parameter(torch.zeros(n_objects))
-        self.n_terms = conf.n_terms
-        self.static = self.spatial(conf, n_objects, temporal=False)
-        self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
-        self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.register_buffer("moving", torch.ones(n_objects))  # 0: the object is held at static_time
-        self.register_buffer("static_time", torch.zeros(()))
-
-    @staticmethod
-    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
-        """The module mapping points [P, 2] to ``n_out`` values [P, n_out]: a SIREN here."""
-        if temporal:
-            return Siren(2, conf.temporal_width, conf.temporal_depth, n_out, conf.omega0)
-        return Siren(2, conf.width, conf.depth, n_out, conf.omega0)
 
     @property
     def intensities(self) -> Tensor:
@@ -89,16 +80,40 @@ class Field(nn.Module):
         """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
         self.log_intensities.copy_(values.to(self.log_intensities).log())
 
-    @torch.no_grad()
-    def set_static(self, static: Tensor, at: float) -> None:
-        """Hold the objects where ``static`` [K] bool is set at their shape at time ``at``
-        (rotations) from now on: g_k(x, t) = g_k(x, at), the field unchanged at that time."""
-        self.moving.copy_((~static.to(torch.bool)).to(self.moving))
-        self.static_time.fill_(at)
-
     def shape_parameters(self) -> list[nn.Parameter]:
         """The parameters of g (all but a(k))."""
         return [p for p in self.parameters() if p is not self.log_intensities]
+
+    def frame_parameters(self) -> list[nn.Parameter]:
+        """The parameters InitFit fits to SDF frames: all of g's here."""
+        return self.shape_parameters()
+
+    def start_motion(self, seen: Sightings) -> None:
+        """Start the field's motion where the objects were ``seen`` (motion.py); a field without
+        poses (static, free) has none to start."""
+
+
+class Field(SpaceTimeField):
+    """g(x, t) = g_E(x) + (1/M) sum_i A_i(x) sin(2 pi w_i t) + B_i(x) cos(2 pi w_i t), K outputs
+    (M = 0: the static rung).
+
+    x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
+    w_i ~ N(0, f_max) are drawn once from ``generator``.
+    """
+
+    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
+        super().__init__(n_objects)
+        self.n_terms = conf.n_terms
+        self.static = self.spatial(conf, n_objects, temporal=False)
+        self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
+        self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
+
+    @staticmethod
+    def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
+        """The module mapping points [P, 2] to ``n_out`` values [P, n_out]: a SIREN here."""
+        if temporal:
+            return Siren(2, conf.temporal_width, conf.temporal_depth, n_out, conf.omega0)
+        return Siren(2, conf.width, conf.depth, n_out, conf.omega0)
 
     def coefficients(self, xy: Tensor) -> Coefficients:
         """Evaluate both spatial parts once at points ``xy`` [P, 2]; time enters later by ``sdf``."""
@@ -130,24 +145,20 @@ class Field(nn.Module):
         static = c.static.expand(t.shape[0], -1, -1)
         if c.temporal is None:
             return static
-        # Per object: the basis at t, or at static_time for an object made static: [T, 2M, K].
-        held = self.basis(self.static_time[None])[0][None, :, None] * (1 - self.moving)
-        weights = self.basis(t)[:, :, None] * self.moving + held
-        return static + torch.einsum("tmk,mkp->tkp", weights, c.temporal)
+        return static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal)
 
     def sdf_rate(self, c: Coefficients, t: Tensor) -> Tensor:
         """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model."""
         if c.temporal is None:
             return c.static.new_zeros(t.shape[0], *c.static.shape)
-        return torch.einsum("tmk,mkp->tkp", self.basis_rate(t)[:, :, None] * self.moving, c.temporal)
+        return torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
         return {
             "n_params": sum(p.numel() for p in self.shape_parameters()),
             "n_terms": self.n_terms,
-            "static": self.temporal is None or not bool(self.moving.any()),
-            "static_objects": [k for k in range(self.n_objects) if self.temporal is None or not self.moving[k]],
+            "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
         }
 
@@ -168,6 +179,13 @@ class MultiGrid(nn.Module):
         total = sum(F.grid_sample(g, where, mode="bilinear", padding_mode="border", align_corners=True)
                     for g in self.grids)
         return total[0, :, 0].T
+
+    def each(self, xy: Tensor) -> Tensor:
+        """Channel k looked up at its own points: xy [n_out, Q, 2] -> [n_out, Q]."""
+        where = xy[:, None]
+        total = sum(F.grid_sample(g.transpose(0, 1), where, mode="bilinear", padding_mode="border",
+                                  align_corners=True) for g in self.grids)
+        return total[:, 0, 0]
 
     def on_lattice(self, size: int) -> Tensor:
         """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
@@ -248,8 +266,22 @@ def lattice_interpolation(size: int, cells: int, device: torch.device | None = N
     return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
 
 
-def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator) -> Field:
-    """The field of ``conf.family`` for ``n_objects`` objects."""
+def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, motion: str = "free",
+                span: float = 1.0) -> SpaceTimeField:
+    """The field of ``conf.family`` holding ``motion`` (a rung of the ladder: static has no temporal
+    terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V) for ``n_objects``
+    objects on a scan of ``span`` rotations."""
+    from nct.method.motion import (  # motion.py builds on this module
+        POSE,
+        moved_template,
+    )
+
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
+    if motion in POSE:
+        return moved_template(conf, motion, n_objects, span)
+    if motion == "static":
+        conf = replace(conf, n_terms=0)
+    elif motion != "free":
+        raise ValueError(f"motion {motion!r} is not a rung of the ladder")
     return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)

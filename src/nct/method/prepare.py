@@ -1,23 +1,31 @@
-"""What every fit of a run shares about its views: the gantry's clock and the held-out split.
+"""The first step of a reconstruction: the data in the method's units, split into fitted and held-out views.
 
-Every n-th view (``heldout.every``) is held out of everything, FBP included, and scores the fit
-afterwards: a truth-free number for choosing settings. Time is measured in gantry rotations from
-the first view, derived from the views' angles and times.
+Every n-th view (``heldout.every``) is held out of everything, FBP included, and scores each fit
+afterwards: the truth-free number every choice is made by (select.py). Time is measured in gantry
+rotations from the first view, derived from the views' angles and times.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
 
+from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.method.conf import HeldoutConf, InitConf, LossConf
+from nct.method.normalise import Units, field_of_view
+from nct.method.stages import Views
+from nct.physics.data_term import view_noise
+from nct.physics.projector import fbp_frames
+
+Clock = Callable[[np.ndarray], torch.Tensor]  # seconds [T] -> rotations since the first view [T]
 
 
-def rotations_since_start(sino: Sinogram) -> Callable[[np.ndarray], torch.Tensor]:
+def rotations_since_start(sino: Sinogram) -> Clock:
     """Map seconds to gantry rotations since the first view, from the views' angles and times."""
     span_t = float(np.ptp(sino.times))
     turns_per_s = float(np.ptp(np.unwrap(sino.angles))) / (2 * math.pi) / span_t if span_t > 0 else 0.0
@@ -54,3 +62,60 @@ def heldout_standard_error(losses: np.ndarray, blocks: int = 10) -> float:
         return float("nan")
     means = [part.mean() for part in np.array_split(losses, min(blocks, len(losses)))]
     return float(np.std(means, ddof=1) / math.sqrt(len(means)))
+
+
+@dataclass
+class Problem:
+    """What every fit of a run shares, in the method's units (normalise.py): the ``grid``, the
+    ``views`` (all of them; fits sample ``fit_views``, ``held_views`` score them), the FBP frames
+    ``fbp`` [F, H, W] of the fitted views at ``init_times`` [F] (rotations), the ``units`` and the ``clock``."""
+
+    grid: ImageGrid
+    loss: LossConf
+    views: Views
+    fbp: np.ndarray
+    init_times: torch.Tensor
+    fit_views: np.ndarray
+    held_views: np.ndarray
+    units: Units
+    clock: Clock
+
+    @property
+    def span(self) -> float:
+        """Gantry rotations from the first view to the last."""
+        return float(self.views.times.max())
+
+    def check_views(self, most: int = 64) -> np.ndarray:
+        """The views that score a fit: the held-out ones, or up to ``most`` fitted ones when none is held out."""
+        if len(self.held_views):
+            return self.held_views
+        return self.fit_views[np.unique(np.linspace(0, len(self.fit_views) - 1, most).round().astype(int))]
+
+    def empty_misfit(self) -> float:
+        """The misfit an empty image scores on ``check_views``: a fit no better than it explains nothing."""
+        check = torch.from_numpy(self.check_views())
+        return float(self.views.values[check].abs().sum(-1).mean()) / self.views.values.shape[1] / self.views.scale
+
+    def held_losses(self, checked: np.ndarray) -> np.ndarray:
+        """The held-out views' misfits [h] among ``checked`` ones (``check_views``): none when no view
+        is held out (the check then ran on fitted views)."""
+        return checked if len(self.held_views) else np.zeros(0)
+
+
+def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, heldout: HeldoutConf,
+            fbp_filter: str, fbp_window_deg: float) -> Problem:
+    """The ``Problem`` of reconstructing ``sino`` on ``grid``: views split, FBP frames of the fitted
+    views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak."""
+    clock = rotations_since_start(sino)
+    fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
+    n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
+    init_times = sino.times[0] + (np.arange(n_init) + 0.5) * (np.ptp(sino.times) / n_init)
+    lengths = field_of_view(grid)
+    grid = lengths.grid(grid)
+    fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
+    units = lengths.with_intensity_of(fbp)
+    fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
+    views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
+                  torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
+                  view_noise(sino, loss.data_term))
+    return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +21,11 @@ from omegaconf import DictConfig, OmegaConf
 from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import InputError
-from nct.method.capacity import band_kept
 from nct.method.conf import ModelConf, OptimConf, RenderConf
-from nct.method.fields import Field, build_field
+from nct.method.fields import SpaceTimeField, build_field
 from nct.method.normalise import Units
-from nct.method.prepare import rotations_since_start
-from nct.method.reconstruct import field_frames, pass_prefix
+from nct.method.prepare import rotations_since_start, rotations_spanned
+from nct.method.reconstruct import field_frames
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
@@ -41,7 +40,7 @@ class FittedRun:
     run's occupancy settings; fps: the run's movie frame rate; checkpoint: the file loaded.
     """
 
-    field: Field
+    field: SpaceTimeField
     units: Units
     grid: ImageGrid
     clock: Callable[[np.ndarray], torch.Tensor]
@@ -74,13 +73,10 @@ def _read_json(path: Path) -> dict:
     return json.loads(path.read_text())
 
 
-def _checkpoint(run_dir: Path, stages: dict, n_terms: int, auto: bool, band: bool) -> Path:
-    """The last saved stage checkpoint of the chosen field: the refinement's if any, else the kept
-    first pass's (``method.pass_prefix``: the chosen rung's with ``capacity.auto``, the wider
-    band's where it was kept); a fit attempt that was not kept (``passes.fit_pass``) is skipped."""
-    prefix = pass_prefix(n_terms, auto, band)
-    ours = [s for s, record in stages.items()
-            if s.startswith(("refine_", prefix + "init", prefix + "fit")) and record.get("kept", True)]
+def _checkpoint(run_dir: Path, stages: dict, winner: str) -> Path:
+    """The last saved stage checkpoint of the chosen field: the refinement's if any, else the
+    tournament winner's (metrics.json -> selection -> winner; selection.csv)."""
+    ours = [s for s in (f"{winner}_fit", "refine_init", "refine_fit") if s in stages]
     saved = [run_dir / "checkpoints" / s / "last.ckpt" for s in ours]
     saved = [p for p in saved if p.is_file()]
     if not saved:
@@ -102,20 +98,21 @@ def load_run(run_dir: Path) -> FittedRun:
     if state != "ok":
         raise InputError(f"{run_dir} did not finish (status.json: {state}): nothing to render")
     metrics = _read_json(run_dir / "metrics.json")
-    n_terms = int(metrics["capacity"]["n_terms"])
-    model: ModelConf = replace(_typed(ModelConf, cfg.model), n_terms=n_terms)
-    auto = bool(cfg.capacity.auto)
-    path = _checkpoint(run_dir, metrics["stages"], n_terms, auto, band_kept(metrics["capacity"].get("band")))
-    # The run's own construction (method.reconstruct): its seed draws the frequencies; every
-    # tensor, the frequencies ``omega`` included, is then restored from the checkpoint.
-    net = build_field(model, len(metrics["intensities"]), torch.Generator().manual_seed(int(cfg.seed)))
+    if "selection" not in metrics:
+        raise InputError(f"{run_dir} was written by an older nct (metrics.json has no selection): rerun it")
+    model: ModelConf = _typed(ModelConf, cfg.model)
+    path = _checkpoint(run_dir, metrics["stages"], metrics["selection"]["winner"])
+    # The winner's own construction (method.reconstruct); every tensor, the frequencies ``omega``
+    # included, is then restored from the checkpoint.
+    sino = load_sinogram(run_dir / "sinogram.npz")
+    net = build_field(model, len(metrics["intensities"]), torch.Generator(), metrics["model"]["motion"],
+                      rotations_spanned(sino))
     weights = torch.load(path, map_location="cpu", weights_only=True)["state_dict"]
     net.load_state_dict({k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")})
     net.eval()
     units = Units(metrics["init"]["length_unit"], metrics["init"]["intensity_unit"])
     with np.load(run_dir / "reconstruction.npz") as rec:
         grid = ImageGrid(int(rec["nct"].shape[-1]), float(rec["extent"]))
-    sino = load_sinogram(run_dir / "sinogram.npz")
     return FittedRun(net, units, grid, rotations_since_start(sino), acquisition_span(sino.times),
                      _typed(RenderConf, cfg.render), float(cfg.export.fps), path)
 

@@ -18,9 +18,9 @@ from torch import Tensor
 from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, OptimConf, RenderConf
-from nct.method.fields import Field, upsample
-from nct.method.race import HeldoutHistory
+from nct.method.fields import SpaceTimeField, upsample
 from nct.method.render import project_frames
+from nct.method.select import HeldoutHistory
 from nct.physics.data_term import misfit
 
 
@@ -81,7 +81,7 @@ def logging_step(trainer: L.Trainer, step: int) -> bool:
 class FieldStage(L.LightningModule):
     """What both stages share: the field on the grid and Adam with warmup and step decay."""
 
-    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, lattice: int | None = None) -> None:
+    def __init__(self, field: SpaceTimeField, grid: ImageGrid, optim: OptimConf, lattice: int | None = None) -> None:
         super().__init__()
         self.field = field
         self.grid = grid
@@ -127,12 +127,16 @@ class InitFit(FieldStage):
     targets: [T, K, H, W] SDF frames (physical units) at ``times`` [T] in rotations.
     """
 
-    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, loss: LossConf,
+    def __init__(self, field: SpaceTimeField, grid: ImageGrid, optim: OptimConf, loss: LossConf,
                  targets: Tensor, times: Tensor, lattice: int | None = None) -> None:
         super().__init__(field, grid, optim, lattice)
         self.loss_conf = loss
         self.register_buffer("targets", targets, persistent=False)
         self.register_buffer("times", times, persistent=False)
+
+    def param_groups(self) -> list[dict]:
+        """The field's ``frame_parameters`` at optim.lr (a moved template's poses are the sinogram's to fit)."""
+        return [{"params": self.field.frame_parameters(), "name": "field"}]
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
         sdf, _ = self.grid_sdf(self.times[batch])
@@ -147,7 +151,7 @@ class SinogramFit(FieldStage):
     """Algorithm 4: render the field at each sampled view's time and angle, the data term (L1 or Poisson),
     plus eikonal, tv_space and tv_time terms; the occupancy band narrows as steps go."""
 
-    def __init__(self, field: Field, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
+    def __init__(self, field: SpaceTimeField, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
                  views: Views, steps: int, lattice: int | None = None) -> None:
         super().__init__(field, grid, optim, lattice)
         self.render_conf = render

@@ -26,8 +26,8 @@ from torch.utils.data import DataLoader, IterableDataset
 from nct.errors import DivergenceError, InputError
 from nct.method.conf import LOGGERS, TrainerConf
 from nct.method.progress import StageBar, StageLog, log_stage, show_bar
-from nct.method.race import HeldoutHistory
 from nct.method.render import intensity
+from nct.method.select import HeldoutHistory
 from nct.method.stages import FieldStage, InitFit, SinogramFit, logging_step
 
 log = logging.getLogger(__name__)
@@ -80,7 +80,7 @@ class MinLossStop(Callback):
 
 class HeldoutStop(Callback):
     """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
-    [(step, loss)] so far (a race of one fit against another's losses at the same steps)."""
+    [(step, loss)] so far (the tournament's rule, select.py)."""
 
     def __init__(self, stops: Callable[[HeldoutHistory], bool]) -> None:
         self.stops = stops

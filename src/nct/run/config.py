@@ -21,7 +21,6 @@ from omegaconf.errors import OmegaConfBaseException
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.errors import InputError, require
-from nct.method.capacity import CapacityConf
 from nct.method.conf import (
     LOGGERS,
     HeldoutConf,
@@ -32,6 +31,7 @@ from nct.method.conf import (
     RenderConf,
     TrainerConf,
 )
+from nct.method.select import SelectionConf
 from nct.physics.conf import FBPConf
 from nct.scenes.phantoms import (
     CircleConf,
@@ -219,7 +219,7 @@ class NCTConf:
     image: ImageConf = field(default_factory=ImageConf)
     fbp: FBPConf = field(default_factory=FBPConf)
     model: ModelConf = field(default_factory=ModelConf)
-    capacity: CapacityConf = field(default_factory=CapacityConf)
+    motion: SelectionConf = field(default_factory=SelectionConf)
     loss: LossConf = field(default_factory=LossConf)
     optim: OptimConf = field(default_factory=OptimConf)
     render: RenderConf = field(default_factory=RenderConf)
@@ -242,8 +242,8 @@ class NCTConf:
             raise ValueError(f"method must be 'nct' (FBP and NCT) or 'fbp' (FBP only), got '{self.method}'")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
-        if self.capacity.auto and self.heldout.every < 2:
-            raise ValueError("capacity=auto scores each model on held-out views: heldout.every must be "
+        if len(self.motion.rungs) > 1 and self.heldout.every < 2:
+            raise ValueError("motion=auto scores each rung on held-out views: heldout.every must be "
                              f">= 2, got {self.heldout.every}")
 
 
@@ -303,7 +303,7 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "image": {"default": ImageConf},
     "fbp": {"default": FBPConf},
     "model": {"default": ModelConf},
-    "capacity": {"default": CapacityConf},
+    "motion": {"default": SelectionConf},
     "loss": {"default": LossConf},
     "optim": {"default": OptimConf},
     "render": {"default": RenderConf},

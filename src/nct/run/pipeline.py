@@ -27,10 +27,10 @@ from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
     run_hparams,
-    write_capacity,
     write_frames,
     write_hparams,
     write_motion,
+    write_selection,
     write_trace,
 )
 from nct.scenes.phantoms import build_phantom
@@ -90,11 +90,11 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
             log_dir=out_dir, logger=conf.logger.name,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
-            capacity=conf.capacity, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
+            motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
             resume=conf.resume,
         )
         frames["nct"] = result.frames
-        extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "capacity": result.capacity,
+        extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model, "selection": result.selection,
                  "stages": result.stages, "intensities": [float(a) for a in result.intensities], "init": result.init}
         trace = result.trace
     return frames, extra, trace
@@ -181,6 +181,8 @@ def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray]
             export.save_trace_plot(out_dir / "trace.png", result["trace"], result["fbp"]["median_dice"])
     if "trace" in result:
         write_csv(result["trace"], out_dir / "trace.csv")
+    if "selection" in result:
+        write_csv(result["selection"]["table"], out_dir / "selection.csv")
     if conf.export.gif:
         export.save_movie(out_dir / "movie.gif", shown, acq.frame_times, conf.export.fps, acq.grid.extent)
 
@@ -192,14 +194,13 @@ def _shown(acq: Acquisition, frames: dict[str, np.ndarray]) -> dict[str, np.ndar
 
 def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
                   scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
-    """The TensorBoard summary: final metrics and wall time as hparams, capacity, trace and frames."""
+    """The TensorBoard summary: final metrics and wall time as hparams, the selection table, trace and frames."""
     final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
     final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
     final["hp/wall_time_s"] = result["wall_time_s"]
-    capacity = result.get("capacity")
-    if capacity:
-        final |= {"hp/n_terms": capacity["n_terms"], "hp/n_params": capacity["n_params"]}
-        write_capacity(out_dir / "tb", capacity)
+    if "model" in result:
+        final["hp/n_params"] = result["model"]["n_params"]
+        write_selection(out_dir / "tb", result["model"], result["selection"])
     if "trace" in result:
         write_trace(out_dir / "tb", result["trace"])
     if result["motion_determinacy"] is not None:

@@ -77,28 +77,16 @@ def write_frames(tb_dir: Path, frames: dict[str, np.ndarray], n_images: int = 6)
             w.add_image("frames/" + "|".join(frames), row, global_step=int(i), dataformats="HW")
 
 
-def write_capacity(tb_dir: Path, capacity: dict) -> None:
-    """The model's capacity as text (family, terms, parameters, the temporal band and why, each
-    object's static or temporal model and, if the terms were chosen automatically, why)
-    and the held-out loss of each fitted rung as ``capacity/heldout_loss`` over the term count."""
+def write_selection(tb_dir: Path, model: dict, selection: dict) -> None:
+    """The chosen model and why, as text (``selection``): the winner's rung, family and parameters, the
+    tournament's reason and its table (selection.csv), one row per candidate."""
     tb_dir.mkdir(parents=True, exist_ok=True)
-    lines = [f"{capacity['family']} field, {capacity['n_terms']} temporal terms, {capacity['n_params']} parameters, "
-             f"F_max {fmt(capacity['f_max'])} cycles/rotation"]
-    if capacity.get("band"):
-        lines.append(f"temporal band: {capacity['band']['reason']}")
-    objects = capacity.get("objects")
-    if objects:
-        lines += [f"object {k}: boundary motion {fmt(o['motion_px'])} px after the fit: {o['model']} "
-                  f"(static below {fmt(objects['static_below_px'])} px)" for k, o in enumerate(objects["per_object"])]
-    choice = capacity.get("choice")
+    rows = [[r["candidate"], r["rung"], r["steps"], fmt(r["heldout_misfit"], 5), r["verdict"]] for r in selection["table"]]
+    lines = [f"{model['motion']} motion, {model['family']} field, {model['n_params']} parameters",
+             f"chosen: {selection['reason']}", "",
+             markdown_table(["candidate", "rung", "steps", "held-out misfit", "verdict"], rows)]
     with SummaryWriter(log_dir=str(tb_dir)) as w:
-        if choice:
-            rows = [[r["n_terms"], fmt(r["heldout_loss"], 5), r["n_params"]] for r in choice["ladder"]]
-            lines += [f"chosen automatically: {choice['reason']}", "",
-                      markdown_table(["terms", "held-out loss", "parameters"], rows)]
-            for rung in choice["ladder"]:
-                w.add_scalar("capacity/heldout_loss", rung["heldout_loss"], global_step=rung["n_terms"])
-        w.add_text("capacity", "\n".join(lines))
+        w.add_text("selection", "\n".join(lines))
 
 
 def write_trace(tb_dir: Path, trace: list[dict]) -> None:

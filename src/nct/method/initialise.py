@@ -1,0 +1,68 @@
+"""Where fits start (Algorithms 1-2): segmentations of the FBP frames, each as SDF frames InitFit fits.
+
+With several objects, a segmentation can hand an object to the background or split one in two, and
+a fit cannot create an object no field starts on: the judge's ``init.starts`` best segmentations
+are all offered to the tournament (select.py). One object starts on the brightest structure whichever
+segmentation wins, and the fit moves its boundary, so one start is enough there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import torch
+
+from nct.acquisition.sinogram import Sinogram
+from nct.method.conf import InitConf
+from nct.method.judge import sinogram_judge
+from nct.method.motion import Sightings, mask_sightings
+from nct.method.prepare import Problem
+from nct.method.sdf import masks_to_sdf
+from nct.method.segment import Segmentation, segmentations
+from nct.method.trajectory import centroid_projections, fit_trajectory
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where a fit may start: InitFit's SDF ``targets`` [F, K, H, W] (method units), a(k)
+    ``intensities`` [K] (None: the field's own), the ``segmentation`` they came from (None: a
+    refinement's own frames) and where its objects were ``seen`` (a moved template's first poses;
+    None: the field's own)."""
+
+    targets: np.ndarray
+    intensities: np.ndarray | None = None
+    segmentation: Segmentation | None = None
+    seen: Sightings | None = None
+
+
+def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator) -> list[Start]:
+    """The starts of a run, best judged first: the judge's ``init.starts`` best segmentations with
+    K >= 2, the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain
+    the fitted views, which also gives a(k))."""
+    judge = None
+    if init.levels == "sinogram":
+        fitted = torch.from_numpy(prob.fit_views)
+        views = prob.views
+        judge = sinogram_judge(prob.init_times, views.values[fitted], views.angles[fitted], views.times[fitted],
+                               views.geometry, prob.grid.extent)
+    ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
+    chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
+    return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
+                  sightings(prob, s.masks)) for s in chosen]
+
+
+def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
+    """Where the objects of ``masks`` [F, K, H, W] were seen at ``prob.init_times``: each mask's centroid
+    and principal axis; with one object, its centre read off the fitted views' first moments instead
+    (trajectory.py: the projection of the mass's centroid, exact in parallel beam, where each FBP frame's
+    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation)."""
+    seen = mask_sightings(masks, prob.init_times)
+    if masks.shape[1] > 1:
+        return seen
+    views, fitted = prob.views, torch.from_numpy(prob.fit_views)
+    sino = Sinogram(views.values[fitted].numpy(), views.angles[fitted].double().numpy(),
+                    views.times[fitted].double().numpy(), views.geometry)
+    path = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
+    centres = path.at(prob.init_times.double().numpy()) * 2 / prob.grid.extent  # image coordinates span [-1, 1]
+    return replace(seen, centres=torch.from_numpy(centres[:, None, :]).float())
