@@ -160,6 +160,8 @@ class Tournament:
                 why = "winner"
             elif e.pruned:
                 why = e.pruned
+            elif e.candidate.simplicity == winner.candidate.simplicity:
+                why = f"held-out misfit {e.misfit / winner.misfit - 1:+.1%} against {winner.candidate.name}, of the same model"
             elif e.misfit <= bound:
                 why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
             else:
