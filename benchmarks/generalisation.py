@@ -122,9 +122,10 @@ def first_line(text: str | None) -> str:
     return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
 
 
-def scene_overrides(scene: Scene, path: Path, extra: Sequence[str]) -> tuple[str, ...]:
-    """The ``nct`` overrides that reconstruct ``scene``'s file with K = its number of objects."""
-    return ("data=file", f"data.path={path.resolve()}", f"data.n_objects={len(scene.objects)}", *QUIET, *extra)
+def scene_overrides(scene: Scene, path: Path, extra: Sequence[str], n_objects: int | None = None) -> tuple[str, ...]:
+    """The ``nct`` overrides that reconstruct ``scene``'s file with K = ``n_objects`` (None: its number of objects)."""
+    k = len(scene.objects) if n_objects is None else n_objects
+    return ("data=file", f"data.path={path.resolve()}", f"data.n_objects={k}", *QUIET, *extra)
 
 
 def plan(out: Path, scenes: Sequence[Scene], files: Sequence[Path], extra: Sequence[str]) -> list[Job]:

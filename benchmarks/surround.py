@@ -13,7 +13,8 @@ where NeuralCT should be as good as FBP (within the generalisation benchmark's m
 says whether both hold.
 
 Run: python benchmarks/surround.py [--size 64] [--views 720] [--override KEY=VALUE ...] [--out DIR]
-     [--resume] [--timeout S]
+     [--resume] [--timeout S] [--background]
+(--background: ``background=image`` with K = the moving objects, the static one left to the background.)
 """
 
 from __future__ import annotations
@@ -85,11 +86,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--views", type=positive_int, default=720, help="views per rotation (default 720)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
                         help="an nct override added to every run (repeatable)")
+    parser.add_argument("--background", action="store_true",
+                        help="background=image, K = the moving objects (the static one is the background's)")
     args = parser.parse_args(argv)
     scenes = surround_scenes(args.views)
     files = [write_scene(s, args.out / "scenes" / f"{n}.npz", args.size, FRAMES_PER_ROTATION, 0)
              for n, s in zip(NAMES, scenes)]
-    jobs = [Job({"scene": n}, "nct", NCT_SEED, scene_overrides(s, f, args.override), args.out / "runs" / n / "nct")
+    extra = ["background=image", *args.override] if args.background else args.override
+    jobs = [Job({"scene": n}, "nct", NCT_SEED,
+                scene_overrides(s, f, extra, len(moving_levels(s)) if args.background else None),
+                args.out / "runs" / n / "nct")
             for n, s, f in zip(NAMES, scenes, files)]
     nct = run_jobs(jobs, args.jobs, args.resume, args.timeout, args.threads)
     table = [row(n, o, f) for n, o, f in zip(NAMES, outcomes(scenes, nct, []), files)]

@@ -23,6 +23,8 @@ VARIANTS = {  # each in units of its own (normalise.py): the export maps back li
     "auto": ["motion.rungs=[static,free]", "motion.tolerance=0.99", "phantom.intensity=3.0"],
     # two rotations (of half the time: the same 0.25 s)
     "rotations": ["scanner.rotations=2", "scanner.rotation_time=0.125", "image.extent=1.5"],
+    # a static background image under the object, rendered beside it at any size
+    "background": ["background=image", "image.extent=1.5"],
 }
 
 
@@ -102,6 +104,11 @@ def test_shapes_files_and_sdf_agree_with_frames(run, capsys):
     assert frames.shape == (48, 256, 256) and frames.dtype == np.float32
     assert sdf.shape == (48, 1, 256, 256) and sdf.dtype == np.float32 and times.shape == (48,)
     a = json.loads((run / "metrics.json").read_text())["intensities"][0]
+    fitted = load_run(run)
+    if fitted.field.background is not None:  # the static background under the object, at the export's size
+        b = torch.nn.functional.interpolate(fitted.field.background.detach()[None, None], size=(256, 256),
+                                            mode="bilinear", align_corners=False)[0, 0]
+        frames = frames - b.numpy() * fitted.units.intensity
     clear = np.abs(sdf[:, 0]) > 1e-4  # occupancy is 1/2 on the zero level set: inside iff above a/2
     np.testing.assert_array_equal((frames > a / 2)[clear], (sdf[:, 0] > 0)[clear])
     assert 0 < (sdf > 0).mean() < 0.5

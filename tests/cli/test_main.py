@@ -24,7 +24,7 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
     (["+optim.learning_rate=1"], "unknown key optim.learning_rate: not a setting of optim (OptimConf); its keys: "
                                  "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
                                  "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
-                                 "intensity_lr, divergence_factor, coarse_size"),
+                                 "intensity_lr, background_lr, divergence_factor, coarse_size"),
     (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
                                        "'str' could not be converted to Float (key: phantom.displacement_deg)"),
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
@@ -60,7 +60,7 @@ def test_help_lists_only_the_groups_users_pick(nct):
     code, out, _ = nct("--help")
     groups = out.split("== Configuration groups ==")[1].split("== Config ==")[0]
     names = {line.split(":")[0] for line in groups.splitlines()[2:] if ":" in line}
-    assert code == 0 and names == {"data", "debug", "experiment", "fbp", "heldout", "hparams_search",
+    assert code == 0 and names == {"background", "data", "debug", "experiment", "fbp", "heldout", "hparams_search",
                                    "image", "init", "logger", "loss", "model", "motion", "optim", "phantom", "render",
                                    "scanner", "suspect", "sweep", "trainer"}
     assert "sweep: displacement, displacement_quick, fmax, fmax_quick, lambda_grid, lambda_grid_quick" in groups

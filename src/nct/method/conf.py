@@ -84,6 +84,9 @@ class LossConf:
     tv_space: weight of mean(|dg/dx| + |dg/dy|) (dimensionless).
     tv_time: weight of mean |dg/dt|, g in field-of-view sides and t in gantry rotations.
     init_eikonal: weight of the Eikonal term in InitFit (Algorithm 3's lambda).
+    tv_background: weight of the static background's mean(|db/dx| + |db/dy|) (intensity, the
+        data's peak = 1, per pixel; only with ``background=image``): keeps b from drawing the
+        objects' smear or the noise.
     data_term: the sinogram term, relative to the data's mean |value| (data_term.py): ``l1``, or
         ``poisson`` (Huber within each ray's Poisson noise std, from data.i0 or estimated).
     InitFit's SDF term is the L1 misfit in pixels, inside and outside each object weighted
@@ -95,10 +98,11 @@ class LossConf:
     tv_space: float = 0.0
     tv_time: float = 0.0
     init_eikonal: float = 0.1
+    tv_background: float = 1.0
     data_term: str = "l1"
 
     def __post_init__(self) -> None:
-        for key in ("eikonal", "tv_space", "tv_time", "init_eikonal"):
+        for key in ("eikonal", "tv_space", "tv_time", "init_eikonal", "tv_background"):
             require(getattr(self, key) >= 0, f"loss.{key}", ">= 0", getattr(self, key))
         require(self.data_term in DATA_TERMS, "loss.data_term", f"one of {', '.join(DATA_TERMS)}", self.data_term)
 
@@ -145,6 +149,8 @@ class OptimConf:
     (timepoints) per step. min_loss: stop SinogramFit once the sinogram loss is below (0: never).
     fit_intensities: SinogramFit also fits a(k), from Algorithm 1's estimate, at intensity_lr
     (Adam on log a): FBP of fast motion has no histogram peak at the object's level.
+    background_lr: Adam's rate for the static background's pixels (``background=image``), in the
+    data's intensity (its peak = 1) per step.
     divergence_factor: stop with DivergenceError once a loss exceeds this multiple of its start.
     coarse_size: side of the lattice on which the first pass evaluates the field, bilinearly
     upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
@@ -166,6 +172,7 @@ class OptimConf:
     min_loss: float = 0.0
     fit_intensities: bool = True
     intensity_lr: float = 1e-2
+    background_lr: float = 5e-3
     divergence_factor: float = 20.0
     coarse_size: Optional[int] = 64
 
@@ -176,7 +183,7 @@ class OptimConf:
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
         for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):
             require(getattr(self, key) >= 0, f"optim.{key}", ">= 0", getattr(self, key))
-        for key in ("lr", "refine_lr", "intensity_lr"):
+        for key in ("lr", "refine_lr", "intensity_lr", "background_lr"):
             require(getattr(self, key) > 0, f"optim.{key}", "> 0", getattr(self, key))
         require(0 < self.lr_decay <= 1, "optim.lr_decay", "in (0, 1]", self.lr_decay)
         require(self.divergence_factor > 1, "optim.divergence_factor", "> 1", self.divergence_factor)
@@ -255,3 +262,25 @@ class HeldoutConf:
         require(self.every >= 0, "heldout.every", ">= 0", self.every)
         require(self.run >= 1, "heldout.run", ">= 1", self.run)
         require(self.check_every >= 0, "heldout.check_every", ">= 0", self.check_every)
+
+
+BACKGROUNDS = ("none", "image")
+
+
+@dataclass
+class BackgroundConf:
+    """What lies under the moving objects (config group ``background``; background.py).
+
+    name: "none" (the paper's: K objects on an empty background) or "image" (a static pixel image
+    b(x) under the objects, fitted with them; the objects are then found in what moves).
+    moving_share: a pixel belongs to the moving region where the FBP frames' standard deviation
+    over time exceeds this share of its 99.9th percentile (a share, so the rule holds at any
+    contrast; the region is then widened by 2 pixels and its holes filled).
+    """
+
+    name: str = "none"
+    moving_share: float = 0.35
+
+    def __post_init__(self) -> None:
+        require(self.name in BACKGROUNDS, "background", f"one of {', '.join(BACKGROUNDS)}", self.name)
+        require(0 < self.moving_share < 1, "background.moving_share", "in (0, 1)", self.moving_share)

@@ -62,13 +62,15 @@ class SpaceTimeField(nn.Module):
     ``on_lattice(size)`` evaluates what does not depend on time once per step and returns it as an
     opaque value c; ``sdf(c, t)`` [T, K, P] and ``sdf_rate(c, t)`` [T, K, P] give g and dg/dt (per
     rotation) at the lattice's P points at times t [T] (rotations). The field also owns each
-    object's intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``), so
-    one checkpoint holds everything that renders the image."""
+    object's intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``) and
+    the static background image b [H, W] under the objects where there is one (None until
+    ``set_background``; background.py), so one checkpoint holds everything that renders the image."""
 
     def __init__(self, n_objects: int) -> None:
         super().__init__()
         self.n_objects = n_objects
         self.log_intensities = nn.Parameter(torch.zeros(n_objects))
+        self.register_parameter("background", None)
 
     @property
     def intensities(self) -> Tensor:
@@ -80,9 +82,17 @@ class SpaceTimeField(nn.Module):
         """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
         self.log_intensities.copy_(values.to(self.log_intensities).log())
 
+    @torch.no_grad()
+    def set_background(self, image: Tensor) -> None:
+        """Hold (or restart) the static background b at ``image`` [H, W]."""
+        if self.background is None or self.background.shape != image.shape:
+            self.background = nn.Parameter(image.detach().clone().to(self.log_intensities))
+        else:
+            self.background.copy_(image)
+
     def shape_parameters(self) -> list[nn.Parameter]:
-        """The parameters of g (all but a(k))."""
-        return [p for p in self.parameters() if p is not self.log_intensities]
+        """The parameters of g (all but a(k) and the background)."""
+        return [p for p in self.parameters() if p is not self.log_intensities and p is not self.background]
 
     def frame_parameters(self) -> list[nn.Parameter]:
         """The parameters InitFit fits to SDF frames: all of g's here."""

@@ -79,6 +79,8 @@ def init_fit(prob: Problem, session: Session, net: SpaceTimeField, name: str, st
         net.set_intensities(torch.tensor(start.intensities, dtype=torch.float32))
     if start.seen is not None:
         net.start_motion(start.seen)
+    if start.background is not None:
+        net.set_background(torch.from_numpy(start.background))
     init = InitFit(net, prob.grid, optim, prob.loss, torch.from_numpy(start.targets), prob.init_times, lattice)
     record = run_stage(
         init, IndexDataModule(np.arange(prob.init_times.shape[0]), optim.batch_views, steps, _seed(rng)),

@@ -14,7 +14,8 @@ import numpy as np
 import torch
 
 from nct.acquisition.sinogram import Sinogram
-from nct.method.conf import InitConf
+from nct.method.background import moving_problem, static_start
+from nct.method.conf import BackgroundConf, InitConf
 from nct.method.judge import sinogram_judge
 from nct.method.motion import Sightings, mask_sightings
 from nct.method.prepare import Problem
@@ -27,19 +28,26 @@ from nct.method.trajectory import centroid_projections, fit_trajectory
 class Start:
     """Where a fit may start: InitFit's SDF ``targets`` [F, K, H, W] (method units), a(k)
     ``intensities`` [K] (None: the field's own), the ``segmentation`` they came from (None: a
-    refinement's own frames) and where its objects were ``seen`` (a moved template's first poses;
-    None: the field's own)."""
+    refinement's own frames), where its objects were ``seen`` (a moved template's first poses;
+    None: the field's own) and the static ``background`` [H, W] under them (None: none, or the field's own)."""
 
     targets: np.ndarray
     intensities: np.ndarray | None = None
     segmentation: Segmentation | None = None
     seen: Sightings | None = None
+    background: np.ndarray | None = None
 
 
-def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator) -> list[Start]:
+def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
+                background: BackgroundConf | None = None) -> list[Start]:
     """The starts of a run, best judged first: the judge's ``init.starts`` best segmentations with
     K >= 2, the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain
-    the fitted views, which also gives a(k))."""
+    the fitted views, which also gives a(k)). With ``background=image`` the objects are sought in
+    what moves, over a static background's start (background.py)."""
+    static = None
+    if background is not None and background.name == "image":
+        static = static_start(prob.fbp, background.moving_share)
+        prob = moving_problem(prob, static)
     judge = None
     if init.levels == "sinogram":
         fitted = torch.from_numpy(prob.fit_views)
@@ -49,16 +57,17 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
     ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
     chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
     return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
-                  sightings(prob, s.masks)) for s in chosen]
+                  sightings(prob, s.masks, static is None), None if static is None else static.image) for s in chosen]
 
 
-def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
+def sightings(prob: Problem, masks: np.ndarray, alone: bool = True) -> Sightings:
     """Where the objects of ``masks`` [F, K, H, W] were seen at ``prob.init_times``: each mask's centroid
-    and principal axis; with one object, its centre read off the fitted views' first moments instead
-    (trajectory.py: the projection of the mass's centroid, exact in parallel beam, where each FBP frame's
-    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation)."""
+    and principal axis; with one object ``alone`` in the views, its centre read off the fitted views'
+    first moments instead (trajectory.py: the projection of the mass's centroid, exact in parallel beam,
+    where each FBP frame's half-rotation window lags fast motion, 10-24 px along the rays at 200
+    deg/rotation). Over a static background the views minus its start are not the object alone."""
     seen = mask_sightings(masks, prob.init_times)
-    if masks.shape[1] > 1:
+    if masks.shape[1] > 1 or not alone:
         return seen
     views, fitted = prob.views, torch.from_numpy(prob.fit_views)
     sino = Sinogram(views.values[fitted].numpy(), views.angles[fitted].double().numpy(),

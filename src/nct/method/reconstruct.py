@@ -19,6 +19,7 @@ import torch
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
 from nct.method.conf import (
+    BackgroundConf,
     HeldoutConf,
     InitConf,
     LossConf,
@@ -56,7 +57,7 @@ class TracePoint:
 class NCTResult:
     """What ``reconstruct`` returns.
 
-    frames: [F, H, W] float32 intensity sum_k a(k) zeta_k; sdf: [F, K, H, W] float32 (physical
+    frames: [F, H, W] float32 intensity b + sum_k a(k) zeta_k (b: the static background, if any); sdf: [F, K, H, W] float32 (physical
     units, positive inside); intensities: [K] a(k); heldout_loss: relative sinogram L1 on the
     held-out views (NaN if none) and heldout_se its standard error; stages: per stage {steps,
     losses, wall_time_s, ...}; model: the winner's field (motion rung, family, parameters);
@@ -112,6 +113,7 @@ def reconstruct(
     render: RenderConf | None = None,
     init: InitConf | None = None,
     heldout: HeldoutConf | None = None,
+    background: BackgroundConf | None = None,
     resume: bool = False,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
@@ -119,6 +121,7 @@ def reconstruct(
     The data are fitted in the method's units (normalise.py) and the frames, SDFs and intensities
     returned in the data's. Every candidate (``motion.rungs`` x the starts) is fitted and scored on the
     held-out views in one tournament (select.py); the winner is refined (``optim.refine``).
+    ``background=image``: a static image under the objects, fitted with them (background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
@@ -131,7 +134,7 @@ def reconstruct(
     L.seed_everything(seed, verbose=False)
     prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg)
     run_rng = np.random.default_rng(seed)
-    starts = find_starts(prob, n_objects, init, run_rng)
+    starts = find_starts(prob, n_objects, init, run_rng, background)
     verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
                                         render)
     winner = verdict.winner
@@ -258,5 +261,8 @@ def _frames(stage: FieldStage, times: torch.Tensor, render: RenderConf, grid: Im
     """Algorithm 6 on the stage's field at ``times`` [F]: intensity frames [F, H, W] and SDF frames
     [F, K, H, W], in the method's units."""
     sdf = field_frames(stage, times)
-    amplitudes = stage.field.intensities.detach().cpu()
-    return intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu).numpy(), sdf
+    field = stage.field
+    amplitudes = field.intensities.detach().cpu()
+    background = None if field.background is None else field.background.detach().cpu()
+    return intensity(torch.from_numpy(sdf), amplitudes, render.band_px * grid.pixel_size, render.mu,
+                     background).numpy(), sdf

@@ -108,7 +108,10 @@ def load_run(run_dir: Path) -> FittedRun:
     net = build_field(model, len(metrics["intensities"]), torch.Generator(), metrics["model"]["motion"],
                       rotations_spanned(sino))
     weights = torch.load(path, map_location="cpu", weights_only=True)["state_dict"]
-    net.load_state_dict({k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")})
+    weights = {k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")}
+    if "background" in weights:
+        net.set_background(weights["background"])
+    net.load_state_dict(weights)
     net.eval()
     units = Units(metrics["init"]["length_unit"], metrics["init"]["intensity_unit"])
     with np.load(run_dir / "reconstruction.npz") as rec:
@@ -122,12 +125,14 @@ def render(run: FittedRun, times: np.ndarray, size: int) -> tuple[np.ndarray, np
     ``times`` [T] (s) over the run's field of view.
 
     The occupancy ramp keeps the physical width the fit used (``render.band_px`` pixels of the
-    run's grid), whatever ``size``: the fitted image is sum_k a(k) zeta(g_k) with that ramp, and
-    every size samples that one image (a ramp of band_px new pixels would sharpen or blur it).
+    run's grid), whatever ``size``: the fitted image is b + sum_k a(k) zeta(g_k) with that ramp (b:
+    the static background, if any, resampled bilinearly), and every size samples that one image
+    (a ramp of band_px new pixels would sharpen or blur it).
     """
     band = run.render.band_px * run.units.grid(run.grid).pixel_size
     grid = run.units.grid(ImageGrid(size, run.grid.extent))
     sdf = field_frames(FieldStage(run.field, grid, OptimConf()), run.clock(times))
-    frames = intensity(torch.from_numpy(sdf), run.field.intensities.detach(), band, run.render.mu).numpy()
+    background = None if run.field.background is None else run.field.background.detach()
+    frames = intensity(torch.from_numpy(sdf), run.field.intensities.detach(), band, run.render.mu, background).numpy()
     frames, sdf = frames * run.units.intensity, sdf * run.units.length
     return frames.astype(np.float32), sdf.astype(np.float32)

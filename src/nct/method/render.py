@@ -1,4 +1,4 @@
-"""From SDF frames to intensity images and sinogram views (paper Sec. IV-B).
+"""From SDF frames (and a static background, if any) to intensity images and sinogram views (paper Sec. IV-B).
 
 Occupancy: zeta = clamp(mu (sigmoid(g / l) - 1/2) + 1/2, 0, 1), a ramp ``band`` wide centred on
 the zero level set (l follows from band and mu). The paper's form, without the + 1/2, puts the
@@ -27,9 +27,16 @@ def occupancy(sdf: Tensor, band: float, mu: float) -> Tensor:
     return (mu * (torch.sigmoid(sdf / scale) - 0.5) + 0.5).clamp(0.0, 1.0)
 
 
-def intensity(sdf: Tensor, intensities: Tensor, band: float, mu: float) -> Tensor:
-    """sum_k a(k) zeta_k: sdf [T, K, H, W], intensities [K] -> [T, H, W]."""
-    return torch.einsum("tkhw,k->thw", occupancy(sdf, band, mu), intensities)
+def intensity(sdf: Tensor, intensities: Tensor, band: float, mu: float, background: Tensor | None = None) -> Tensor:
+    """b + sum_k a(k) zeta_k: sdf [T, K, H, W], intensities [K] -> [T, H, W]; ``background`` b [h, w]
+    (None: none) is resampled bilinearly where its size differs from the SDF's."""
+    images = torch.einsum("tkhw,k->thw", occupancy(sdf, band, mu), intensities)
+    if background is None:
+        return images
+    if background.shape != images.shape[1:]:
+        background = F.interpolate(background[None, None], size=images.shape[1:], mode="bilinear",
+                                   align_corners=False)[0, 0]
+    return images + background
 
 
 def project_frames(
@@ -41,15 +48,17 @@ def project_frames(
     band: float,
     mu: float,
     k_samp: int = 1,
+    background: Tensor | None = None,
 ) -> Tensor:
     """Render frame t at view angle t along ``geometry``'s rays: sdf [T, K, H, W], angles [T] -> views [T, n_bins].
 
     ``k_samp`` > 1 upsamples the SDF bilinearly, draws the occupancy on the finer grid and
     averages ``k_samp`` rays per detector bin (the paper's supersampling and average pooling).
+    ``background``: a static image [H, W] under the objects (None: none).
     """
     if k_samp < 1:
         raise ValueError(f"k_samp must be >= 1, got {k_samp}")
     if k_samp > 1:
         sdf = F.interpolate(sdf, scale_factor=k_samp, mode="bilinear", align_corners=False)
-    images = intensity(sdf, intensities, band, mu)
+    images = intensity(sdf, intensities, band, mu, background)
     return project(images, angles, geometry, extent, bin_samples=k_samp)

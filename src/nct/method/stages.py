@@ -53,6 +53,11 @@ def eikonal_loss(gx: Tensor, gy: Tensor) -> Tensor:
     return ((gx.square() + gy.square() + 1e-12).sqrt() - 1).abs().mean()
 
 
+def total_variation(image: Tensor) -> Tensor:
+    """mean(|db/dx| + |db/dy|) of an image [H, W] per pixel (anisotropic TV; the static background's term)."""
+    return (image[:, 1:] - image[:, :-1]).abs().mean() + (image[1:, :] - image[:-1, :]).abs().mean()
+
+
 def balanced_l1(sdf: Tensor, targets: Tensor) -> Tensor:
     """Mean |sdf - targets| with the inside (targets > 0) and the outside weighted equally, per
     object: a small object's few inside pixels would otherwise lose to the background, and a
@@ -149,7 +154,8 @@ class InitFit(FieldStage):
 
 class SinogramFit(FieldStage):
     """Algorithm 4: render the field at each sampled view's time and angle, the data term (L1 or Poisson),
-    plus eikonal, tv_space and tv_time terms; the occupancy band narrows as steps go."""
+    plus eikonal, tv_space and tv_time terms (and tv_background with a static background); the
+    occupancy band narrows as steps go."""
 
     def __init__(self, field: SpaceTimeField, grid: ImageGrid, optim: OptimConf, render: RenderConf, loss: LossConf,
                  views: Views, steps: int, lattice: int | None = None) -> None:
@@ -174,6 +180,8 @@ class SinogramFit(FieldStage):
         if self.optim.fit_intensities:
             groups.append({"params": [self.field.log_intensities], "lr": self.optim.intensity_lr,
                            "name": "intensities"})
+        if self.field.background is not None:
+            groups.append({"params": [self.field.background], "lr": self.optim.background_lr, "name": "background"})
         return groups
 
     def band(self) -> float:
@@ -183,7 +191,7 @@ class SinogramFit(FieldStage):
     def render(self, sdf: Tensor, views: Tensor, band: float) -> Tensor:
         """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] at the angles of ``views`` [v]."""
         return project_frames(sdf, self.intensities, self.angles[views], self.geometry, self.grid.extent, band,
-                              self.render_conf.mu, self.render_conf.k_samp)
+                              self.render_conf.mu, self.render_conf.k_samp, self.field.background)
 
     def training_step(self, batch: Tensor, batch_idx: int) -> dict[str, Tensor]:
         band = self.band()
@@ -195,6 +203,9 @@ class SinogramFit(FieldStage):
                  "tv_space": (gx.abs() + gy.abs()).mean(), "tv_time": rate.abs().mean()}
         w = self.loss_conf
         loss = sinogram + w.eikonal * terms["eikonal"] + w.tv_space * terms["tv_space"] + w.tv_time * terms["tv_time"]
+        if self.field.background is not None:
+            terms["tv_background"] = total_variation(self.field.background)
+            loss = loss + w.tv_background * terms["tv_background"]
         extra = {"train/loss": loss, "train/band_px": band / self.grid.pixel_size}
         extra |= {f"train/intensity_{k}": a for k, a in enumerate(self.intensities.detach())}
         self.log_due({f"train/{k}": v for k, v in terms.items()} | extra)

@@ -23,6 +23,7 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.errors import InputError, require
 from nct.method.conf import (
     LOGGERS,
+    BackgroundConf,
     HeldoutConf,
     InitConf,
     LossConf,
@@ -220,6 +221,7 @@ class NCTConf:
     fbp: FBPConf = field(default_factory=FBPConf)
     model: ModelConf = field(default_factory=ModelConf)
     motion: SelectionConf = field(default_factory=SelectionConf)
+    background: BackgroundConf = field(default_factory=BackgroundConf)
     loss: LossConf = field(default_factory=LossConf)
     optim: OptimConf = field(default_factory=OptimConf)
     render: RenderConf = field(default_factory=RenderConf)
@@ -304,6 +306,7 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "fbp": {"default": FBPConf},
     "model": {"default": ModelConf},
     "motion": {"default": SelectionConf},
+    "background": {"default": BackgroundConf},
     "loss": {"default": LossConf},
     "optim": {"default": OptimConf},
     "render": {"default": RenderConf},

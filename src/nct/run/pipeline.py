@@ -91,6 +91,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             log_dir=out_dir, logger=conf.logger.name,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
             motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
+            background=conf.background,
             resume=conf.resume,
         )
         frames["nct"] = result.frames

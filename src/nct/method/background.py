@@ -1,0 +1,69 @@
+"""A static background under the moving objects (``background=image``; issue 29).
+
+The image is mu(x, t) = b(x) + sum_k a(k) zeta_k(x, t): b a pixel image on the grid, fitted with the
+objects (TV-regularised), the K objects the parts that move. Where the FBP frames change over the scan
+is the moving region; b starts from the frames' mean with that region filled in from its
+surroundings, and the objects are found (segment.py) in what then remains:
+the frames minus b's start, inside the region, and the views minus b's projection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import torch
+from scipy.ndimage import binary_dilation, binary_fill_holes, label
+
+from nct.method.prepare import Problem
+from nct.physics.projector import project
+
+WIDEN_PX = 2  # the region grows by this many pixels: its rule finds a moving edge's core, not its ramp
+PERCENTILE = 99.9  # moving_share is a share of the temporal std at this percentile (the maximum is one pixel's)
+# A still scene's frames differ by noise and discretisation alone: a pixel moves only where its std
+# over time is also this many times the median pixel's (noise) and this share of the frames' peak.
+NOISE_FACTOR = 3.0
+PEAK_SHARE = 0.02
+
+
+@dataclass(frozen=True)
+class StaticStart:
+    """Where a static background starts: ``image`` [H, W] (method units) and the ``moving`` region [H, W] bool."""
+
+    image: np.ndarray
+    moving: np.ndarray
+
+
+def moving_region(frames: np.ndarray, share: float) -> np.ndarray:
+    """Pixels of FBP ``frames`` [F, H, W] whose std over time exceeds ``share`` of its
+    PERCENTILE-th percentile (and the still scene's floors), widened by WIDEN_PX and with holes
+    filled (an object's still middle moves with it): [H, W] bool, empty for a still scene."""
+    spread = frames.std(axis=0)
+    floor = max(NOISE_FACTOR * float(np.median(spread)), PEAK_SHARE * float(np.abs(frames).max()))
+    region = spread > max(share * np.percentile(spread, PERCENTILE), floor)
+    return binary_fill_holes(binary_dilation(region, iterations=WIDEN_PX))
+
+
+def static_start(frames: np.ndarray, share: float) -> StaticStart:
+    """The background's start from FBP ``frames`` [F, H, W]: their mean, each connected piece of the
+    moving region filled with the median of the pixels around it (a biharmonic or linear fill
+    overshoots, or carries a neighbouring lung's level into the heart)."""
+    moving = moving_region(frames, share)
+    image = frames.mean(axis=0)
+    pieces, n = label(moving)
+    for piece in range(1, n + 1):
+        inside = pieces == piece
+        ring = binary_dilation(inside, iterations=WIDEN_PX) & ~moving
+        if ring.any():
+            image[inside] = np.median(image[ring])
+    return StaticStart(image.astype(np.float32), moving)
+
+
+def moving_problem(prob: Problem, start: StaticStart) -> Problem:
+    """``prob`` as the objects alone see it: FBP frames minus the background inside the moving region
+    (zero elsewhere), views minus the background's projection."""
+    frames = (prob.fbp - start.image) * start.moving
+    views = prob.views
+    shown = project(torch.from_numpy(start.image), views.angles, views.geometry, prob.grid.extent)
+    return replace(prob, fbp=frames.astype(np.float32), views=replace(views, values=views.values - shown))
+
