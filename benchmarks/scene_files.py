@@ -35,6 +35,24 @@ def chord_lengths(pose: Pose, angles: np.ndarray, s: np.ndarray) -> np.ndarray:
     return 2 * (pose.a * pose.b / h2)[:, None] * np.sqrt(inside)
 
 
+def chord_midpoints(pose: Pose, angles: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the middle of each chord of `chord_lengths` lies, relative to the ellipse's centre: (x, y),
+    [V, R] each (meaningless where the ray misses).
+
+    The ray is s e + t d, e = (cos θ, sin θ), d = (−sin θ, cos θ); at offset s' from the centre's
+    projection, the chord's middle is s' e + t_m d where t_m minimises the ellipse's norm of
+    s' e + t d: with θ' = θ − angle, t_m = s' sin θ' cos θ' (1/a² − 1/b²) / (sin² θ'/a² + cos² θ'/b²).
+    """
+    rel = angles - pose.angle
+    sin, cos = np.sin(rel), np.cos(rel)
+    inv_a2, inv_b2 = 1 / pose.a**2, 1 / pose.b**2
+    along = (sin * cos * (inv_a2 - inv_b2) / (sin**2 * inv_a2 + cos**2 * inv_b2))[:, None]
+    offset = s - (pose.cx * np.cos(angles) + pose.cy * np.sin(angles))[:, None]
+    t_m = offset * along
+    return (offset * np.cos(angles)[:, None] - t_m * np.sin(angles)[:, None],
+            offset * np.sin(angles)[:, None] + t_m * np.cos(angles)[:, None])
+
+
 def detector(scene: Scene, size: int) -> tuple[int, float]:
     """(n_bins, bin_spacing) in unit FOV: the truth's pixel pitch, wide enough for ``detector_width``."""
     return int(math.ceil(size * scene.acquisition.detector_width)), 1.0 / size
@@ -42,7 +60,8 @@ def detector(scene: Scene, size: int) -> tuple[int, float]:
 
 def line_integrals(scene: Scene, size: int) -> np.ndarray:
     """Exact line integrals of ``scene`` (unit FOV), each view at its own time, each bin the mean of
-    ``SUB_RAYS`` rays spread over its width: [V, n_bins] float64."""
+    ``SUB_RAYS`` rays spread over its width (a graded object's chord: its length × the intensity at its
+    middle, exact for a linear intensity): [V, n_bins] float64."""
     acq = scene.acquisition
     n_bins, spacing = detector(scene, size)
     angles, times = acq.angles(), acq.times()
@@ -51,7 +70,12 @@ def line_integrals(scene: Scene, size: int) -> np.ndarray:
     s = np.broadcast_to((centres[:, None] + sub[None, :]).ravel(), (angles.size, n_bins * SUB_RAYS))
     total = np.zeros((angles.size, n_bins * SUB_RAYS))
     for i, obj in enumerate(scene.objects):
-        total += obj.intensity * chord_lengths(Pose.of(scene, i, times), angles, s)
+        pose = Pose.of(scene, i, times)
+        chords = chord_lengths(pose, angles, s)
+        total += obj.intensity * chords
+        if obj.gradient != (0.0, 0.0):  # linear in x, y: a chord's integral is its length × its middle's value
+            mx, my = chord_midpoints(pose, angles, s)
+            total += (obj.gradient[0] * mx + obj.gradient[1] * my) * chords
     return total.reshape(angles.size, n_bins, SUB_RAYS).mean(axis=2)
 
 
@@ -78,7 +102,8 @@ def truth_times(scene: Scene, frames_per_rotation: int) -> np.ndarray:
 
 
 def rasterise(scene: Scene, times: np.ndarray, size: int) -> np.ndarray:
-    """Truth frames at ``times`` on a ``size``² grid (unit FOV): intensities of overlapping objects add,
+    """Truth frames at ``times`` on a ``size``² grid (unit FOV): intensities of overlapping objects add
+    (a graded object's at each sub-pixel's centre),
     each pixel the mean of ``SUPERSAMPLE``² sub-pixels. Columns run along x, rows down y (y up, as
     the file format says): [F, size, size] float32."""
     fine = size * SUPERSAMPLE
@@ -91,14 +116,18 @@ def rasterise(scene: Scene, times: np.ndarray, size: int) -> np.ndarray:
             dx, dy = x - p.cx[f], y - p.cy[f]
             u = dx * np.cos(p.angle[f]) + dy * np.sin(p.angle[f])
             v = -dx * np.sin(p.angle[f]) + dy * np.cos(p.angle[f])
-            frames[f] += obj.intensity * ((u / p.a[f]) ** 2 + (v / p.b[f]) ** 2 <= 1)
+            inside = (u / p.a[f]) ** 2 + (v / p.b[f]) ** 2 <= 1
+            value = obj.intensity + obj.gradient[0] * dx + obj.gradient[1] * dy
+            frames[f] += np.where(inside, value, 0.0)
     return frames.reshape(times.size, size, SUPERSAMPLE, size, SUPERSAMPLE).mean(axis=(2, 4)).astype(np.float32)
 
 
-def write_scene(scene: Scene, path: Path, size: int, frames_per_rotation: int, seed: int) -> Path:
+def write_scene(scene: Scene, path: Path, size: int, frames_per_rotation: int, seed: int,
+                level: float | None = None) -> Path:
     """Simulate ``scene`` and write it in the documented sinogram format, lengths in its own units:
     sinogram [V, B] float32, angles, times, bin_spacing, truth [F, size, size], truth_times,
-    truth_extent, truth_level (half the faintest object's intensity). ``seed`` drives the noise."""
+    truth_extent, truth_level (``level``; None: half the faintest object's intensity). ``seed`` drives
+    the noise."""
     values = line_integrals(scene, size) * scene.extent
     if scene.noise_i0 is not None:
         values = add_noise(values, scene.noise_i0, scene.extent, np.random.default_rng([seed, scene.index, 1]))
@@ -109,5 +138,6 @@ def write_scene(scene: Scene, path: Path, size: int, frames_per_rotation: int, s
                         times=scene.acquisition.times(), bin_spacing=np.float64(spacing * scene.extent),
                         truth=rasterise(scene, times, size), truth_times=times,
                         truth_extent=np.float64(scene.extent),
-                        truth_level=np.float64(0.5 * min(o.intensity for o in scene.objects)))
+                        truth_level=np.float64(0.5 * min(o.intensity for o in scene.objects) if level is None
+                                               else level))
     return path

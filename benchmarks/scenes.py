@@ -22,6 +22,12 @@ gantry rotation):
   (the paper's heart).
 A nested object rides on its container: its centre is the container's centre plus its own offset
 and motion.
+
+Textured scenes (issue 29, item 4; `draw_textured_scene`): 1-2 moving objects, brighter than what
+surrounds them, inside a static body whose surroundings are not uniform, in three families:
+``gradient`` (the body's intensity varies linearly across it), ``structures`` (small static
+ellipses brighter and darker than the body) and ``holes`` (static low-intensity inclusions, lungs:
+negative intensities added to the body's). Intensities of overlapping objects add, as everywhere.
 """
 
 from __future__ import annotations
@@ -72,7 +78,9 @@ class Motion:
 class Ellipse:
     """One object: ``centre`` (unit FOV; an orbit's centre, relative to the container when nested),
     semi-axes ``a`` along ``angle`` (rad) and ``b`` across it, ``intensity`` (attenuation per unit
-    length), ``motion``, ``parent``: index of its container (None: not nested)."""
+    length), ``motion``, ``parent``: index of its container (None: not nested); ``gradient`` (gx, gy):
+    intensity added per unit length along x and y from the centre (a static object's texture: the
+    intensity at (x, y) inside is ``intensity`` + gx (x − cx) + gy (y − cy))."""
 
     centre: tuple[float, float]
     a: float
@@ -81,6 +89,7 @@ class Ellipse:
     intensity: float
     motion: Motion = Motion()
     parent: int | None = None
+    gradient: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -218,15 +227,15 @@ def _check_times(scene: Scene) -> np.ndarray:
     return acq.time_offset + np.linspace(0, acq.duration, CHECK_SAMPLES)
 
 
-def layout_ok(scene: Scene) -> bool:
+def layout_ok(scene: Scene, radius_range: tuple[float, float] = RADIUS_RANGE) -> bool:
     """Whether, at every checked time, every object lies inside the FOV circle, has semi-axes within
-    ``RADIUS_RANGE``, nested objects lie inside their container (bounding circles) and all others
+    ``radius_range``, nested objects lie inside their container (bounding circles) and all others
     are apart from each other by ``GAP``."""
     times = _check_times(scene)
     poses = [Pose.of(scene, i, times) for i in range(len(scene.objects))]
     for p in poses:
         outside = np.any(np.hypot(p.cx, p.cy) + p.a > FOV_RADIUS)
-        if outside or p.b.min() < RADIUS_RANGE[0] or p.a.max() > RADIUS_RANGE[1]:
+        if outside or p.b.min() < radius_range[0] or p.a.max() > radius_range[1]:
             return False
     for i, oi in enumerate(scene.objects):
         for j in range(i + 1, len(scene.objects)):
@@ -244,11 +253,7 @@ def draw_scene(seed: int, index: int) -> Scene:
     """Scene ``index`` of the benchmark seeded ``seed``: its own generator (seed, index), so a scene does
     not depend on how many are drawn. Layouts that break `layout_ok` are drawn again."""
     rng = np.random.default_rng([seed, index])
-    units = str(rng.choice(list(UNITS)))
-    low, high = UNITS[units]
-    extent = float(rng.uniform(low, high))
-    acquisition = draw_acquisition(rng)
-    noise_i0 = None if rng.random() < P_NOISELESS else float(np.exp(rng.uniform(*np.log(I0_RANGE))))
+    units, extent, acquisition, noise_i0 = draw_setting(rng)
     n_objects = int(rng.integers(1, 4))
     layout = "single" if n_objects == 1 else "nested" if rng.random() < P_NESTED else "apart"
     static = rng.random() < P_STATIC_SCENE
@@ -263,6 +268,16 @@ def draw_scene(seed: int, index: int) -> Scene:
 def draw_scenes(seed: int, n: int) -> list[Scene]:
     """The first ``n`` scenes of the benchmark seeded ``seed``."""
     return [draw_scene(seed, i) for i in range(n)]
+
+
+def draw_setting(rng: np.random.Generator) -> tuple[str, float, Acquisition, float | None]:
+    """Units, extent, scanner and noise (I0, None: noiseless) of a scene, in that order from ``rng``."""
+    units = str(rng.choice(list(UNITS)))
+    low, high = UNITS[units]
+    extent = float(rng.uniform(low, high))
+    acquisition = draw_acquisition(rng)
+    noise_i0 = None if rng.random() < P_NOISELESS else float(np.exp(rng.uniform(*np.log(I0_RANGE))))
+    return units, extent, acquisition, noise_i0
 
 
 def draw_acquisition(rng: np.random.Generator) -> Acquisition:
@@ -329,3 +344,131 @@ def draw_motion(rng: np.random.Generator, kind: str, free: float) -> Motion:
     direction = float(rng.choice([-1.0, 1.0])) if kind == "orbit" else float(rng.uniform(0, np.pi))
     return Motion(kind, float(rng.uniform(MIN_DEG_PER_ROTATION, MAX_DEG_PER_ROTATION)), float(rng.uniform(low, high)),
                   direction, float(rng.uniform(0, 2 * np.pi)))
+
+
+# Textured static surroundings (issue 29, item 4): a static body, its texture, 1-2 moving objects inside.
+FAMILIES = ("gradient", "structures", "holes")
+TEXTURED_MOTIONS = ("orbit", "translation", "beat")
+TEXTURED_RADIUS_RANGE = (0.02, 0.45)  # layout_ok's bounds for textured scenes: small structures, a large body
+BODY_A_RANGE, BODY_ASPECT_RANGE, BODY_INTENSITY_RANGE = (0.34, 0.42), (0.75, 0.95), (0.4, 0.8)
+GRADIENT_RANGE = (0.25, 0.45)  # the gradient's rise from the body's centre to its edge, fraction of its intensity
+STRUCTURES, STRUCTURE_RADIUS_RANGE, STRUCTURE_CONTRAST_RANGE = (3, 4), (0.02, 0.06), (0.15, 0.35)
+HOLES, HOLE_RADIUS_RANGE, HOLE_ASPECT_RANGE, HOLE_DEPTH_RANGE = (1, 2), (0.07, 0.12), (0.5, 0.9), (0.7, 0.95)
+HOLE_MAX_A = 0.18
+MOVING_RADIUS_RANGE, MOVING_INTENSITY_RANGE = (0.05, 0.09), (0.8, 1.6)
+TEXTURED_SPEED_RANGE = (20.0, 150.0)  # deg/rot: texture is the question here, not the fastest motion
+TEXTURED_AMPLITUDE_RANGE = {"orbit": (0.04, 0.10), "translation": (0.04, 0.10), "beat": (0.1, 0.3)}
+LEVEL_MARGIN = 0.1  # every static pixel lies this far below each moving object's own level
+PLACE_TRIES = 50  # tries to place one static inclusion before the whole scene is drawn again
+
+
+def draw_textured_scene(seed: int, family: str, index: int) -> Scene:
+    """Scene ``index`` of ``family`` (``FAMILIES``) for sampler seed ``seed``, from its own generator
+    (seed, 29, family, index): units, scanner and noise as `draw_scene`'s, ``layout`` = the family.
+
+    Objects: the body (0; a large static ellipse of intensity 0.4-0.8; ``gradient``: rising
+    linearly by 25-45 % of its intensity from its centre to its edge along a random direction), then
+    1-2 moving objects nested in it (1..; radius 5-9 % of the FOV; orbit, translation or beat at
+    20-150 deg/rot, amplitudes of 4-10 % of the FOV or 10-30 % of the axes), then the family's static
+    inclusions, nested in the body: ``structures``: 3-4 small ellipses (semi-axes 2-6 %), intensity
+    ±0.15-0.35 over the body's, at least one brighter and one darker; ``holes``: 1-2 lungs (semi-minor
+    axis 7-12 %, aspect 0.5-0.9, semi-major axis at most 18 %), 70-95 % of the body's intensity taken away. Every object lies clear of
+    the others by ``GAP`` at every time (`layout_ok`); each moving object's intensity makes its own
+    level (`Scene.own_levels`: the body's intensity plus half its own) at least ``LEVEL_MARGIN`` above
+    every static pixel."""
+    if family not in FAMILIES:
+        raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
+    rng = np.random.default_rng([seed, 29, FAMILIES.index(family), index])
+    units, extent, acquisition, noise_i0 = draw_setting(rng)
+    n_moving = int(rng.integers(1, 3))
+
+    def scene_of(objects: list[Ellipse]) -> Scene:
+        return Scene(index, units, extent, tuple(objects), family, acquisition, noise_i0)
+
+    for _ in range(MAX_TRIES):
+        body = draw_body(rng, family == "gradient")
+        contrasts = draw_contrasts(rng, family, body.intensity)
+        rise = max([0.0, *contrasts], default=0.0) + (math.hypot(*body.gradient) * body.a)
+        low = max(MOVING_INTENSITY_RANGE[0], 2 * (rise + LEVEL_MARGIN))
+        objects = [body, *(draw_moving(rng, inner_room(body), float(rng.uniform(low, MOVING_INTENSITY_RANGE[1])))
+                           for _ in range(n_moving))]
+        if not layout_ok(scene_of(objects), TEXTURED_RADIUS_RANGE):
+            continue
+        for contrast in contrasts:
+            for _ in range(PLACE_TRIES):
+                candidate = [*objects, draw_inclusion(rng, family, inner_room(body), contrast)]
+                if layout_ok(scene_of(candidate), TEXTURED_RADIUS_RANGE):
+                    objects = candidate
+                    break
+            else:
+                break
+        else:
+            return scene_of(objects)
+    raise RuntimeError(f"{family} scene {index} (seed {seed}): no valid layout in {MAX_TRIES} tries")
+
+
+def draw_textured_scenes(seed: int, n: int, families: tuple[str, ...] = FAMILIES) -> list[Scene]:
+    """The first ``n`` scenes of each of ``families``, family by family."""
+    return [draw_textured_scene(seed, family, i) for family in families for i in range(n)]
+
+
+def draw_body(rng: np.random.Generator, graded: bool) -> Ellipse:
+    """The static body: semi-axes 34-42 % and 75-95 % of that, inside the FOV circle, intensity 0.4-0.8;
+    ``graded``: a linear gradient along a random direction, rising ``GRADIENT_RANGE`` of its intensity
+    from the centre to the edge (at most; at the end of its long axis)."""
+    a = float(rng.uniform(*BODY_A_RANGE))
+    b = a * float(rng.uniform(*BODY_ASPECT_RANGE))
+    r, phi = (FOV_RADIUS - a - 0.005) * np.sqrt(rng.random()), rng.uniform(0, 2 * np.pi)
+    intensity = float(rng.uniform(*BODY_INTENSITY_RANGE))
+    gradient = (0.0, 0.0)
+    if graded:
+        slope, towards = float(rng.uniform(*GRADIENT_RANGE)) * intensity / a, rng.uniform(0, 2 * np.pi)
+        gradient = (float(slope * np.cos(towards)), float(slope * np.sin(towards)))
+    return Ellipse(centre=(float(r * np.cos(phi)), float(r * np.sin(phi))), a=a, b=b,
+                   angle=float(rng.uniform(0, np.pi)), intensity=intensity, gradient=gradient)
+
+
+def draw_contrasts(rng: np.random.Generator, family: str, body_intensity: float) -> list[float]:
+    """The intensities the family's static inclusions add to the body's: none (gradient); 3-4 of
+    ±0.15-0.35, the first brighter, the second darker, the rest either (structures); 1-2 of −70-95 %
+    of the body's intensity (holes)."""
+    if family == "structures":
+        n = int(rng.integers(STRUCTURES[0], STRUCTURES[1] + 1))
+        signs = [1.0, -1.0, *rng.choice([-1.0, 1.0], size=n - 2)]
+        return [float(s * rng.uniform(*STRUCTURE_CONTRAST_RANGE)) for s in signs]
+    if family == "holes":
+        n = int(rng.integers(HOLES[0], HOLES[1] + 1))
+        return [float(-rng.uniform(*HOLE_DEPTH_RANGE) * body_intensity) for _ in range(n)]
+    return []
+
+
+def draw_moving(rng: np.random.Generator, room: float, intensity: float) -> Ellipse:
+    """A moving object nested in object 0, staying within ``room`` of its centre: radius
+    ``MOVING_RADIUS_RANGE`` (log-uniform), aspect 0.7-1, orbit | translation | beat
+    (``TEXTURED_AMPLITUDE_RANGE``) at ``TEXTURED_SPEED_RANGE`` deg/rot."""
+    kind = str(rng.choice(TEXTURED_MOTIONS))
+    b = float(np.exp(rng.uniform(*np.log(MOVING_RADIUS_RANGE))))
+    direction = float(rng.choice([-1.0, 1.0])) if kind == "orbit" else float(rng.uniform(0, np.pi))
+    motion = Motion(kind, float(rng.uniform(*TEXTURED_SPEED_RANGE)),
+                    float(rng.uniform(*TEXTURED_AMPLITUDE_RANGE[kind])), direction, float(rng.uniform(0, 2 * np.pi)))
+    swing = motion.amplitude if kind in ("orbit", "translation") else 0.0
+    grow = 1 + motion.amplitude if kind == "beat" else 1.0
+    a = b / float(rng.uniform(0.7, 1.0))
+    reach = max(room - swing - a * grow, 0.0)
+    r, phi = reach * np.sqrt(rng.random()), rng.uniform(0, 2 * np.pi)
+    return Ellipse(centre=(float(r * np.cos(phi)), float(r * np.sin(phi))), a=a, b=b,
+                   angle=float(rng.uniform(0, np.pi)), intensity=intensity, motion=motion, parent=0)
+
+
+def draw_inclusion(rng: np.random.Generator, family: str, room: float, contrast: float) -> Ellipse:
+    """A static ellipse nested in object 0, within ``room`` of its centre, adding ``contrast``: a structure
+    (semi-axes in ``STRUCTURE_RADIUS_RANGE``) or a hole (``HOLE_RADIUS_RANGE``, ``HOLE_ASPECT_RANGE``)."""
+    if family == "holes":
+        b = float(rng.uniform(*HOLE_RADIUS_RANGE))
+        a = min(b / float(rng.uniform(*HOLE_ASPECT_RANGE)), HOLE_MAX_A)
+    else:
+        b = float(np.exp(rng.uniform(*np.log(STRUCTURE_RADIUS_RANGE))))
+        a = min(b / float(rng.uniform(0.6, 1.0)), STRUCTURE_RADIUS_RANGE[1])
+    r, phi = max(room - a, 0.0) * np.sqrt(rng.random()), rng.uniform(0, 2 * np.pi)
+    return Ellipse(centre=(float(r * np.cos(phi)), float(r * np.sin(phi))), a=a, b=b,
+                   angle=float(rng.uniform(0, np.pi)), intensity=contrast, parent=0)
