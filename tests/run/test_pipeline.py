@@ -103,6 +103,22 @@ def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, ste
     assert (metrics["heldout_loss"] > metrics["heldout_fbp_loss"]) == warned
 
 
+@pytest.mark.parametrize("background", ["none", "image"])
+def test_a_run_writes_the_whole_image_beside_its_masks(tiny_cfg, run_dir, background):
+    """reconstruction.npz: the NCT frames are the whole image, the background (if any) plus each object's
+    a(k) inside its mask (``nct_masks``); ``nct_background`` is there only with background=image."""
+    run_job(tiny_cfg(f"background={background}", *QUIET), run_dir)
+    rec, metrics = np.load(run_dir / "reconstruction.npz"), read(run_dir / "metrics.json")
+    masks, frames = rec["nct_masks"], rec["nct"]
+    assert masks.dtype == bool and masks.shape == (6, 1, 32, 32) and 0 < masks.mean() < 0.5
+    assert ("nct_background" in rec) == (background == "image")
+    under = rec["nct_background"] if background == "image" else np.zeros((32, 32), np.float32)
+    objects = frames - under  # a(k) x occupancy: above a/2 inside the mask, except on the 1-pixel ramp
+    a = metrics["intensities"][0]
+    agree = (objects > a / 2) == masks[:, 0]
+    assert agree.mean() > 0.97
+
+
 def test_resume_skips_a_finished_job(tiny_cfg, run_dir):
     run_job(tiny_cfg("method=fbp", *QUIET), run_dir)
     stamp = (run_dir / "status.json").stat().st_mtime_ns

@@ -62,7 +62,8 @@ class NCTResult:
     held-out views (NaN if none) and heldout_se its standard error; stages: per stage {steps,
     losses, wall_time_s, ...}; model: the winner's field (motion rung, family, parameters);
     selection: the tournament's verdict (winner, reason, one row per candidate: selection.csv);
-    init: the starts (segment.py's route, levels) and the units, in the data's; trace: snapshots.
+    init: the starts (segment.py's route, levels) and the units, in the data's; trace: snapshots;
+    background: the static image [H, W] float32 under the objects (``background=image``; None: none).
     """
 
     frames: np.ndarray
@@ -75,6 +76,7 @@ class NCTResult:
     selection: dict = field(default_factory=dict)
     init: dict = field(default_factory=dict)
     trace: list[TracePoint] = field(default_factory=list)
+    background: np.ndarray | None = None
 
 
 def candidates(motion: SelectionConf, starts: list[Start], span: float) -> list[Candidate]:
@@ -171,7 +173,9 @@ def reconstruct(
               "starts_tried": len(starts), "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
               "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
               "intensity_unit": units.intensity},
-        trace=trace)
+        trace=trace,
+        background=None if net.background is None else
+        (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32))
 
 
 def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[Start], n_objects: int,

@@ -27,8 +27,9 @@ TIME_LABEL = "frame time (ms)"
 
 
 def save_reconstruction(path: Path, times: np.ndarray, extent: float, frames: dict[str, np.ndarray]) -> None:
-    """``reconstruction.npz``: each method's frames [F,H,W] float32 (``fbp``, ``nct``), ``times`` [F], ``extent``."""
-    arrays = {name: np.asarray(f, dtype=np.float32) for name, f in frames.items()}
+    """``reconstruction.npz``: each method's frames [F,H,W] float32 (``fbp``, ``nct``), ``times`` [F], ``extent``,
+    and any other arrays of ``frames`` (NeuralCT's masks, as bool, and background) as they are."""
+    arrays = {name: f if f.dtype == bool else np.asarray(f, dtype=np.float32) for name, f in frames.items()}
     np.savez_compressed(path, times=np.asarray(times, dtype=np.float64), extent=np.float64(extent), **arrays)
 
 

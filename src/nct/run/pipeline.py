@@ -77,10 +77,13 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
 
-def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dict[str, np.ndarray], dict, list]:
-    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, extra metrics
-    and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
+def reconstruct_all(conf: NCTConf, acq: Acquisition,
+                    out_dir: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict, list]:
+    """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, NeuralCT's parts
+    (``nct_masks`` [F, K, H, W]: each object's inside; ``nct_background`` [H, W] where there is one),
+    extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
+    parts: dict[str, np.ndarray] = {}
     extra: dict = {}
     trace: list = []
     if conf.method == "nct":
@@ -95,10 +98,13 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path) -> tuple[dic
             resume=conf.resume,
         )
         frames["nct"] = result.frames
+        parts["nct_masks"] = result.sdf > 0
+        if result.background is not None:
+            parts["nct_background"] = result.background
         extra = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model, "selection": result.selection,
                  "stages": result.stages, "intensities": [float(a) for a in result.intensities], "init": result.init}
         trace = result.trace
-    return frames, extra, trace
+    return frames, parts, extra, trace
 
 
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
@@ -118,7 +124,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
-    frames, extra, trace = reconstruct_all(conf, acq, out_dir)
+    frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
     warnings = (determinacy_warnings(motion) + geometry_warnings(geometry, acq.sino, conf.suspect)
                 + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
@@ -134,7 +140,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     elif trace:
         log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
-    write_outputs(conf, acq, frames, scored, result, out_dir)
+    write_outputs(conf, acq, frames, parts, scored, result, out_dir)
     result["wall_time_s"] = time.perf_counter() - started  # TensorBoard's summary, written next, records it too
     if conf.logger.name == "tensorboard":
         write_summary(cfg, acq, frames, scored, result, out_dir)
@@ -166,10 +172,10 @@ def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
     return rows
 
 
-def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray],
+def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray], parts: dict[str, np.ndarray],
                   scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
-    """reconstruction.npz, TIFF stacks, PNG strip, GIF and metric plot."""
-    export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames)
+    """reconstruction.npz (the frames and NeuralCT's ``parts``), TIFF stacks, PNG strip, GIF and metric plot."""
+    export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames | parts)
     shown = _shown(acq, frames)
     if conf.export.tiff:
         export.save_tiffs(out_dir / "frames", shown)
