@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import torch.nn.functional as F
+from numpy.polynomial.legendre import legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -60,11 +61,9 @@ class Lattice:
 
 
 def legendre(s: Tensor, n: int) -> Tensor:
-    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n]."""
-    out = [torch.ones_like(s), s]
-    for j in range(1, n - 1):
-        out.append(((2 * j + 1) * s * out[j] - j * out[j - 1]) / (j + 1))
-    return torch.stack(out[:n], dim=1)
+    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
+    (``legvander``; times are data, not parameters, so no gradient flows through s)."""
+    return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)
 
 
 class MovedTemplate(SpaceTimeField):
