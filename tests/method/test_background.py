@@ -3,6 +3,8 @@ then sought, and that a fit with it explains static surroundings the objects alo
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 import torch
@@ -11,6 +13,7 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.method.background import moving_problem, moving_region, static_start
 from nct.method.conf import BackgroundConf, HeldoutConf, LossConf
 from nct.method.fields import build_field
+from nct.method.initialise import find_starts
 from nct.method.prepare import prepare
 from nct.method.reconstruct import reconstruct
 from nct.method.render import intensity
@@ -48,16 +51,28 @@ def test_the_background_starts_as_the_mean_with_the_moving_region_filled_from_ar
     np.testing.assert_allclose(start.image[~start.moving], frames.mean(0)[~start.moving])
 
 
-def test_the_objects_are_sought_in_what_moves():
-    """Over a background that is the whole scene, the object frames and views are (nearly) empty."""
+@pytest.fixture(scope="module")
+def still_scene():
+    """The scene's static part alone, prepared as a run would: a Problem."""
     scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
     phantom = build_phantom(ComposedConf(objects=SCENE[:2]), scanner.rotation_time)
     sino = simulate(phantom, scanner, GRID, scanner.frame_times(6), None, np.random.default_rng(0))
-    prob = prepare(sino, GRID, LossConf(), INIT, HeldoutConf(), "ramp", 180.0)
-    start = static_start(prob.fbp, 0.35)
-    moved = moving_problem(prob, start)
+    return prepare(sino, GRID, LossConf(), INIT, HeldoutConf(), "ramp", 180.0)
+
+
+def test_the_objects_are_sought_in_what_moves(still_scene):
+    """Over a background that is the whole scene, the object frames and views are (nearly) empty."""
+    prob = still_scene
+    moved = moving_problem(prob, static_start(prob.fbp, 0.35))
     assert np.abs(moved.fbp).max() < 0.05 * np.abs(prob.fbp).max()
     assert float(moved.views.values.abs().mean()) < 0.05 * float(prob.views.values.abs().mean())
+
+
+def test_a_still_scene_over_a_background_says_nothing_moves(still_scene, caplog):
+    with caplog.at_level(logging.WARNING, logger="nct.method.initialise"):
+        starts = find_starts(still_scene, 1, INIT, np.random.default_rng(0), BackgroundConf(name="image"))
+    assert any("nothing moves" in r.getMessage() for r in caplog.records)
+    assert starts[0].background is not None
 
 
 def test_the_field_holds_its_background_apart_from_its_shape():

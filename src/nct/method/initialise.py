@@ -8,6 +8,7 @@ segmentation wins, and the fit moves its boundary, so one start is enough there.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -22,6 +23,8 @@ from nct.method.prepare import Problem
 from nct.method.sdf import masks_to_sdf
 from nct.method.segment import Segmentation, segmentations
 from nct.method.trajectory import centroid_projections, fit_trajectory
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -47,6 +50,9 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
     static = None
     if background is not None and background.name == "image":
         static = static_start(prob.fbp, background.moving_share)
+        if not static.moving.any():
+            log.warning("background=image: nothing moves in these data (the FBP frames do not change over the "
+                        "scan): the background holds the whole image and the objects start empty")
         prob = moving_problem(prob, static)
     judge = None
     if init.levels == "sinogram":
