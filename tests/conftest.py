@@ -151,6 +151,16 @@ def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
     return simulate(phantom, scanner, grid, times, None, np.random.default_rng(0)), times
 
 
+def circle(deg: float, rotations: float = 1.0, views: int = 720, size: int = 128) -> tuple[Sinogram, np.ndarray, float]:
+    """The project's circle (conf/phantom/circle.yaml) at ``deg``/rot, simulated analytically:
+    (sinogram, true centre at every view [V, 2], pixel size)."""
+    scanner = Scanner(views_per_rotation=views, rotations=rotations, n_bins=size, bin_spacing=1 / size)
+    phantom = build_phantom(CircleConf(displacement_deg=deg), scanner.rotation_time)
+    sino = simulate(phantom, scanner, ImageGrid(size), scanner.frame_times(1), None, np.random.default_rng(0))
+    return sino, phantom.ellipses(scanner.times)[:, 0, :2], 1 / size
+
+
+
 def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None,
                  motion: SelectionConf | None = None):
     """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,

@@ -130,15 +130,17 @@ def test_one_object_starts_once(bright_and_faint):
 
 
 def test_one_object_starts_where_the_sinograms_first_moments_put_it():
-    """A disc orbiting 150 deg/rotation: each FBP frame's half-rotation window lags it, the first
-    moments of the views do not (trajectory.py), so a moved template's poses start from them."""
+    """A disc orbiting 150 deg/rotation: each plain FBP frame's half-rotation window lags it, the first
+    moments of the views do not (trajectory.py), so a lone object's poses start from them, held, and
+    its FBP frames undo the translation (compensate.py): their masks sit where the moments say."""
     grid = ImageGrid(40)
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=48, bin_spacing=1 / 40)
     phantom = build_phantom(CircleConf(radius=0.1, orbit_radius=0.25, displacement_deg=150.0), scanner.rotation_time)
     sino = simulate(phantom, scanner, grid, scanner.frame_times(6), None, np.random.default_rng(0))
-    prob = prepare(sino, grid, LossConf(), INIT, HeldoutConf(), "ramp", 180.0)
-    start = find_starts(prob, 1, INIT, np.random.default_rng(0))[0]
-    seconds = prob.init_times.double().numpy() * scanner.rotation_time
+    plain, lone = (prepare(sino, grid, LossConf(), INIT, HeldoutConf(), "ramp", 180.0, lone=x) for x in (False, True))
+    start = find_starts(lone, 1, INIT, np.random.default_rng(0))[0]
+    lagging = find_starts(plain, 1, INIT, np.random.default_rng(0))[0]
+    seconds = lone.init_times.double().numpy() * scanner.rotation_time
     truth = simulate(phantom, scanner, grid, seconds, None, np.random.default_rng(0)).truth.frames > 0.5
     u = (np.arange(40) + 0.5) / 20 - 1  # pixel centres in image coordinates, [-1, 1]
     centres = np.stack([(truth * u[None, None, :]).sum((1, 2)), (truth * -u[None, :, None]).sum((1, 2))], -1)
@@ -147,6 +149,8 @@ def test_one_object_starts_where_the_sinograms_first_moments_put_it():
     def error_px(seen: Sightings) -> float:
         return float(np.abs(seen.centres[:, 0].numpy() - centres).max() * 20)
 
-    from_masks = mask_sightings(start.segmentation.masks, prob.init_times)
-    moments, masks = error_px(start.seen), error_px(from_masks)
-    assert moments < 0.5 and masks > 2 * moments, (moments, masks)  # measured 0.42 and 5.1 px
+    moments = error_px(start.seen)
+    sharp = error_px(mask_sightings(start.segmentation.masks, lone.init_times))
+    smeared = error_px(mask_sightings(lagging.segmentation.masks, plain.init_times))
+    assert start.seen.held and not lagging.seen.held
+    assert moments < 0.5 and sharp < 1.0 and smeared > 2 * moments, (moments, sharp, smeared)

@@ -4,6 +4,7 @@ degrees of freedom, starts from masks, and a tiny reconstruction through the sta
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from nct.method.conf import LossConf, ModelConf
 from nct.method.fields import build_field, lattice_points
 from nct.method.motion import (
     POSE_SCALE,
+    SPAN,
     GridMovedTemplate,
     MovedTemplate,
     legendre,
@@ -129,9 +131,24 @@ def test_poses_start_from_masks():
     torch.testing.assert_close(poses[:, 0, 0] / px, torch.tensor([-10.0, 0.0, 10.0]), atol=0.3, rtol=0)
     torch.testing.assert_close(poses[:, 1, 0] / px, torch.tensor([5.0, 5.0, 5.0]), atol=0.3, rtol=0)
     torch.testing.assert_close(poses[:, 2, 0], torch.tensor([0.2, 0.8, 1.4]), atol=0.05, rtol=0)
+    # a free centre's template spans the whole image; a held one's the bar (half-diagonal 8.2 px) with room to spare
+    assert field.extent[0] == SPAN
+    field.start_motion(replace(mask_sightings(masks, times), held=True))
+    assert 8.2 * px < field.extent[0] / 1.5 and field.extent[0] < SPAN / 2
     # a disc gives no axis: its angle starts at zero
     disc = np.hypot(x, y)[None, None] <= 10
     assert mask_sightings(np.repeat(disc, n, axis=0), times).angles.abs().max() == 0
+
+
+def test_held_centres_are_not_fitted():
+    """Centres read off the views' first moments (``held``) get no gradient; the angle does."""
+    times = torch.linspace(0, 1, 6)
+    masks = np.zeros((6, 1, 32, 32), dtype=bool)
+    masks[:, :, 10:20, 12:16] = True
+    field = moved(n_objects=1)
+    field.start_motion(replace(mask_sightings(masks, times), held=True))
+    field.poses(times).square().sum().backward()
+    assert field.pose.grad[:2].abs().max() == 0 and field.pose.grad[2].abs().max() > 0
 
 
 @pytest.mark.parametrize("family", ["grid", "siren"])

@@ -192,7 +192,7 @@ def test_the_ladder_chooses_static_for_a_still_scene_and_free_for_a_moving_one(a
     ladder = SelectionConf(rungs=["static", "free"])
     moving = run(sino, times, motion=ladder)
     table = {r["candidate"]: r for r in moving.selection["table"]}
-    assert moving.selection["winner"] == "free" and set(table) == {"static", "free"}
+    assert moving.selection["winner"] == "free" and {"static", "free"} <= set(table)  # a static_restart may join
     assert table["static"]["heldout_misfit"] > (1 + ladder.tolerance) * table["free"]["heldout_misfit"] or \
         table["static"]["steps"] < OPTIM.fit_steps
     alone = run(sino, times)

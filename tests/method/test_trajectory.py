@@ -7,12 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
 from nct.method.trajectory import centroid_projections, determinacy, fit_trajectory
-from nct.scenes.phantoms import CircleConf, build_phantom
-from nct.scenes.simulate import simulate
-from tests.conftest import GEOMETRIES, closed_form_sinogram
+from tests.conftest import GEOMETRIES, circle, closed_form_sinogram
 
 DISC = (0.12, -0.07, 0.15, 0.15, 0.0, 1.0)  # (cx, cy, a, b, angle, intensity): off-centre
 
@@ -39,15 +36,6 @@ def test_an_empty_view_has_no_centroid_and_the_fit_skips_it():
     assert np.isnan(p[10]) and np.isfinite(np.delete(p, 10)).all()
     still = fit_trajectory(sino.angles, sino.times, p).at(sino.times)
     assert np.abs(still - DISC[:2]).max() < 1e-3
-
-
-def circle(deg: float, rotations: float = 1.0, views: int = 720, size: int = 128) -> tuple[Sinogram, np.ndarray, float]:
-    """The project's circle (conf/phantom/circle.yaml) at ``deg``/rot, simulated analytically:
-    (sinogram, true centre at every view [V, 2], pixel size)."""
-    scanner = Scanner(views_per_rotation=views, rotations=rotations, n_bins=size, bin_spacing=1 / size)
-    phantom = build_phantom(CircleConf(displacement_deg=deg), scanner.rotation_time)
-    sino = simulate(phantom, scanner, ImageGrid(size), scanner.frame_times(1), None, np.random.default_rng(0))
-    return sino, phantom.ellipses(scanner.times)[:, 0, :2], 1 / size
 
 
 def test_slow_motion_is_recovered_within_a_tenth_of_a_pixel():

@@ -14,7 +14,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 import torch
 
-from nct.acquisition.sinogram import Sinogram
 from nct.method.background import moving_problem, static_start
 from nct.method.conf import BackgroundConf, InitConf
 from nct.method.judge import sinogram_judge
@@ -22,7 +21,6 @@ from nct.method.motion import Sightings, mask_sightings
 from nct.method.prepare import Problem
 from nct.method.sdf import masks_to_sdf
 from nct.method.segment import Segmentation, segmentations
-from nct.method.trajectory import centroid_projections, fit_trajectory
 
 log = logging.getLogger(__name__)
 
@@ -63,21 +61,15 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
     ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
     chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
     return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
-                  sightings(prob, s.masks, static is None), None if static is None else static.image) for s in chosen]
+                  sightings(prob, s.masks), None if static is None else static.image) for s in chosen]
 
 
-def sightings(prob: Problem, masks: np.ndarray, alone: bool = True) -> Sightings:
+def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
     """Where the objects of ``masks`` [F, K, H, W] were seen at ``prob.init_times``: each mask's centroid
-    and principal axis; with one object ``alone`` in the views, its centre read off the fitted views'
-    first moments instead (trajectory.py: the projection of the mass's centroid, exact in parallel beam,
-    where each FBP frame's half-rotation window lags fast motion, 10-24 px along the rays at 200
-    deg/rotation). Over a static background the views minus its start are not the object alone."""
+    and principal axis; a lone object's centre is its mass centroid read off the views' first
+    moments (``prob.centres``; trajectory.py, exact in parallel beam, where each FBP frame's
+    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation), held by the fit."""
     seen = mask_sightings(masks, prob.init_times)
-    if masks.shape[1] > 1 or not alone:
+    if prob.centres is None or masks.shape[1] > 1:
         return seen
-    views, fitted = prob.views, torch.from_numpy(prob.fit_views)
-    sino = Sinogram(views.values[fitted].numpy(), views.angles[fitted].double().numpy(),
-                    views.times[fitted].double().numpy(), views.geometry)
-    path = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
-    centres = path.at(prob.init_times.double().numpy()) * 2 / prob.grid.extent  # image coordinates span [-1, 1]
-    return replace(seen, centres=torch.from_numpy(centres[:, None, :]).float())
+    return replace(seen, centres=torch.from_numpy(prob.centres[:, None, :]).float(), held=True)

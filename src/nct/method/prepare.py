@@ -16,9 +16,11 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.method.compensate import compensated_frames
 from nct.method.conf import HeldoutConf, InitConf, LossConf
 from nct.method.normalise import Units, field_of_view
 from nct.method.stages import Views
+from nct.method.trajectory import centroid_projections, fit_trajectory
 from nct.physics.data_term import view_noise
 from nct.physics.projector import fbp_frames
 
@@ -68,7 +70,9 @@ def heldout_standard_error(losses: np.ndarray, blocks: int = 10) -> float:
 class Problem:
     """What every fit of a run shares, in the method's units (normalise.py): the ``grid``, the
     ``views`` (all of them; fits sample ``fit_views``, ``held_views`` score them), the FBP frames
-    ``fbp`` [F, H, W] of the fitted views at ``init_times`` [F] (rotations), the ``units`` and the ``clock``."""
+    ``fbp`` [F, H, W] of the fitted views at ``init_times`` [F] (rotations), the ``units`` and the
+    ``clock``; for a lone object, its mass centroid's ``centres`` [F, 2] at ``init_times`` read off
+    the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise)."""
 
     grid: ImageGrid
     loss: LossConf
@@ -79,6 +83,7 @@ class Problem:
     held_views: np.ndarray
     units: Units
     clock: Clock
+    centres: np.ndarray | None = None
 
     @property
     def span(self) -> float:
@@ -103,19 +108,28 @@ class Problem:
 
 
 def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, heldout: HeldoutConf,
-            fbp_filter: str, fbp_window_deg: float) -> Problem:
+            fbp_filter: str, fbp_window_deg: float, lone: bool = False) -> Problem:
     """The ``Problem`` of reconstructing ``sino`` on ``grid``: views split, FBP frames of the fitted
-    views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak."""
+    views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak.
+    With one object ``lone`` in the views (no background), its centroid's path is read off their
+    first moments and the FBP frames undo its translation (compensate.py)."""
     clock = rotations_since_start(sino)
     fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
     n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
     init_times = sino.times[0] + (np.arange(n_init) + 0.5) * (np.ptp(sino.times) / n_init)
     lengths = field_of_view(grid)
     grid = lengths.grid(grid)
-    fbp = fbp_frames(subset(lengths.sinogram(sino), fit_views), grid, init_times, fbp_window_deg, fbp_filter)
+    fitted = subset(lengths.sinogram(sino), fit_views)
+    centres = None
+    if lone:
+        path = fit_trajectory(fitted.angles, fitted.times, centroid_projections(fitted))
+        fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter)
+        centres = path.at(init_times) * 2 / grid.extent
+    else:
+        fbp = fbp_frames(fitted, grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
-    return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock)
+    return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres)

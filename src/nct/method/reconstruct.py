@@ -39,6 +39,8 @@ from nct.method.trainer import LOGGERS, RunClock, snapshot
 
 log = logging.getLogger(__name__)
 RESTART_RATE = 0.5  # a fit whose misfit ends above its start is tried again at this share of its rates
+EMPTY = 0.999  # a misfit above this share of an empty image's explains nothing: a field faded to nothing renders
+# its sigmoid tails and scores a hair below the empty image (the tiny test's small disc: 1 - 2e-8)
 PAPER = "free"  # the paper's field from the best judged start: the candidate that continues the run's random streams
 
 
@@ -134,7 +136,8 @@ def reconstruct(
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
-    prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg)
+    prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg,
+                   lone=n_objects == 1 and (background is None or background.name == "none"))
     run_rng = np.random.default_rng(seed)
     starts = find_starts(prob, n_objects, init, run_rng, background)
     verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
@@ -207,7 +210,7 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
     for cand in pool:
         start(cand)
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
-    empty = prob.empty_misfit()
+    empty = EMPTY * prob.empty_misfit()
     fitted: dict[str, Fitted] = {}
     queue = sorted(pool, key=lambda c: started[c.name][0])
     while queue:
