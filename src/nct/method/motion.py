@@ -79,7 +79,7 @@ class MovedTemplate(SpaceTimeField):
     points (a SIREN at every moved point costs ~6x more per step); so g is one function of x
     whatever the lattice. Template k covers [-SPAN, SPAN]^2 about its centre (2-px pitch at 128 px);
     one whose centre is held (``Sightings``) covers its object's reach only (``start_motion``): the
-    circle's disc gets a 0.5-px pitch (circle at 100 deg/rotation: 0.994 against 0.931). Beyond it
+    circle's disc gets a 0.5-px pitch (circle at 100 deg/rotation, rigid: 0.998, 0.931 at SPAN). Beyond it
     the lookup holds its border (outside the object, so g < 0 there). A free centre keeps SPAN: at
     the finer pitch the vessel over a background drifted 12 px along the rays (0.24 against 0.87).
 
