@@ -129,7 +129,7 @@ def reconstruct(
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
-    init, heldout = init or InitConf(), heldout or HeldoutConf()
+    init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
     if n_objects < 1:
         raise ValueError(f"n_objects must be >= 1, got {n_objects}")
     if logger not in LOGGERS:
@@ -137,7 +137,7 @@ def reconstruct(
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
     prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg,
-                   lone=n_objects == 1 and (background is None or background.name == "none"))
+                   lone=n_objects == 1 and background.name != "image")
     run_rng = np.random.default_rng(seed)
     starts = find_starts(prob, n_objects, init, run_rng, background)
     verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
