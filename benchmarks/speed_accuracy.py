@@ -1,4 +1,4 @@
-"""Speed against accuracy: FBP and NeuralCT configurations of increasing budget on six scenes.
+"""Speed against accuracy: FBP and NeuralCT configurations of increasing budget on seven scenes.
 
 Each (scene, configuration, seed) runs in its own ``nct`` process (nct.analysis.benchmarking). Writes
 runs.csv, summary.csv, accuracy_vs_time.png (Pareto front per scene), params_vs_accuracy.png
@@ -47,6 +47,7 @@ SCENES: dict[str, tuple[str, ...]] = {
     "circle_40": ("experiment=circle", "phantom.displacement_deg=40"),
     "circle_100": ("experiment=circle", "phantom.displacement_deg=100"),
     "circle_150": ("experiment=circle", "phantom.displacement_deg=150"),
+    "bar": ("experiment=bar",),
     "heart_cine": ("experiment=heart_cine",),
     "letters": ("experiment=letters",),
     "static": ("experiment=static",),
@@ -73,13 +74,15 @@ class Config:
 
 def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]:
     """FBP, then NeuralCT of increasing budget (steps x the defaults, field size), the explicit grid
-    family (half and full steps) and the motion ladder chosen from the data (grid and default family), then the paper's model
+    family (half and full steps), each simpler motion rung alone (the default is the free rung) and the
+    motion ladder chosen from the data (grid and default family), then the paper's model
     (with refinement, as in the paper) at a tenth of ``paper_steps`` and at ``paper_steps`` steps per
     stage, first seed only: its time, extrapolated to the paper's steps, is the point."""
     factors = (0.1, 0.25) if quick else (0.25, 0.5, 1.0, 2.0)
     ladder = [Config("nct-default" if f == 1 else f"nct-x{f:g}", "nct", () if f == 1 else scaled_steps(defaults, f))
               for f in factors]
     small = [] if quick else [Config("nct-small", "nct", ("model=siren_small",))]
+    rungs = [] if quick else [Config(f"nct-{r}", "nct", (f"motion={r}",)) for r in ("static", "rigid", "affine")]
     grids = [Config("grid-x0.5", "nct", ("model=grid", *scaled_steps(defaults, 0.5))),
              Config("grid", "nct", ("model=grid",)), Config("grid-auto", "nct", ("model=grid", "motion=auto")),
              Config("nct-auto", "nct", ("motion=auto",))]
@@ -89,7 +92,7 @@ def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]
                                                      *stage_steps(defaults, steps)), reference=True, n_seeds=1, **kw)
 
     short = paper(max(1, paper_steps // 10))
-    return [Config("fbp", "fbp"), *ladder, *small, *([] if quick else grids), short,
+    return [Config("fbp", "fbp"), *ladder, *small, *rungs, *([] if quick else grids), short,
             paper(paper_steps, extrapolate_steps=PAPER_STEPS, short=short.name)]
 
 
@@ -236,6 +239,22 @@ def plot_params_vs_accuracy(rows: Sequence[dict], path: Path) -> Path:
     return path
 
 
+def pivot(rows: Sequence[dict]) -> str:
+    """One line per scene, one column per configuration: median Dice, median run time and, where the run
+    chose its motion rung, the choice; the compact view of what each configuration costs and wins."""
+    names = list(dict.fromkeys(r["config"] for r in rows))
+    cells = {(r["scene"], r["config"]): r for r in rows}
+
+    def cell(r: dict | None) -> str:
+        if r is None:
+            return "–"
+        chosen = f", {r['rungs']}" if r["rungs"] and r["config"].endswith("auto") else ""
+        return f"{r['dice_median']:.3f} ({fmt(r['run_time_s'])} s{chosen})"
+
+    return markdown_table(["scene", *names], [[scene, *(cell(cells.get((scene, n))) for n in names)]
+                                              for scene in dict.fromkeys(r["scene"] for r in rows)])
+
+
 def report(rows: Sequence[dict], head: dict, command: str, elapsed_s: float) -> str:
     """The markdown note: headline, then one table row per scene and configuration."""
     table = markdown_table(
@@ -257,7 +276,8 @@ def report(rows: Sequence[dict], head: dict, command: str, elapsed_s: float) -> 
         "Run time: data to metrics inside the run; process: the whole `nct` process. Params: "
         "`model.n_params` of metrics.json (– when not reported; FBP has none). Motion: the "
         "motion rung each seed's run chose (`motion=auto` chooses it from held-out views).", "",
-        table, ""])
+        "Per scene: median Dice (median run time; for `motion=auto`, the rung chosen).", "", pivot(rows), "",
+        "Per scene and configuration:", "", table, ""])
 
 
 def run_benchmark(out: Path, scenes: dict[str, Sequence[str]], cfgs: Sequence[Config], seeds: Sequence[int],
