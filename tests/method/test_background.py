@@ -75,6 +75,18 @@ def test_a_still_scene_over_a_background_says_nothing_moves(still_scene, caplog)
     assert starts[0].background is not None
 
 
+def test_one_object_over_a_background_is_held_on_its_focused_path():
+    """K = 1 over a background: the start's poses are the disc's own path (the whole mass's, 1/10 of
+    it the disc's, scaled into focus), held by the fit, within 0.5 px of the truth at every init time."""
+    scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
+    phantom = build_phantom(ComposedConf(objects=SCENE), scanner.rotation_time)
+    sino = simulate(phantom, scanner, GRID, scanner.frame_times(6), None, np.random.default_rng(0))
+    prob = prepare(sino, GRID, LossConf(), INIT, HeldoutConf(), "ramp", 180.0)
+    seen = find_starts(prob, 1, INIT, np.random.default_rng(0), BackgroundConf(name="image"))[0].seen
+    truth = 2 * phantom.ellipses(prob.init_times.double().numpy() * scanner.rotation_time)[:, 2, :2]
+    assert seen.held and np.hypot(*(seen.centres[:, 0].double().numpy() - truth).T).max() < 2 * 0.5 / 32
+
+
 def test_the_field_holds_its_background_apart_from_its_shape():
     net = build_field(MODEL, 1, torch.Generator().manual_seed(0))
     assert net.background is None and "background" not in net.state_dict()

@@ -4,7 +4,8 @@ The image is mu(x, t) = b(x) + sum_k a(k) zeta_k(x, t): b a pixel image on the g
 objects (TV-regularised), the K objects the parts that move. Where the FBP frames change over the scan
 is the moving region; b starts from the frames' mean with that region filled in from its
 surroundings, and the objects are found (segment.py) in what then remains:
-the frames minus b's start, inside the region, and the views minus b's projection.
+the frames minus b's start, inside the region, and the views minus b's projection. One object
+over b is held to the path that its motion leaves in the views' first moments (`lone_mover`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ import numpy as np
 import torch
 from scipy.ndimage import binary_dilation, binary_fill_holes, label
 
+from nct.method.compensate import compensated_frames, focused_path
 from nct.method.prepare import Problem
+from nct.method.trajectory import centroid_projections, fit_trajectory
 from nct.physics.projector import project
 
 WIDEN_PX = 2  # the region grows by this many pixels: its rule finds a moving edge's core, not its ramp
@@ -67,3 +70,17 @@ def moving_problem(prob: Problem, start: StaticStart) -> Problem:
     shown = project(torch.from_numpy(start.image), views.angles, views.geometry, prob.grid.extent)
     return replace(prob, fbp=frames.astype(np.float32), views=replace(views, values=views.values - shown))
 
+
+
+def lone_mover(prob: Problem, moved: Problem, moving: np.ndarray) -> Problem:
+    """``moved`` (`moving_problem` of ``prob``) for one object over the background: its ``centres``
+    at the init times and FBP frames of its views with its translation undone (compensate.py),
+    inside the ``moving`` region [H, W]. Its path is the whole mass's centroid path, read off
+    ``prob``'s fitted views, scaled into focus on ``moved``'s (compensate.focused_path): the plain
+    frames smear a small mover and their centroids lag its motion, by pixels at the scan's ends."""
+    total, residual = prob.fitted_sinogram(), moved.fitted_sinogram()
+    path = focused_path(residual, fit_trajectory(total.angles, total.times, centroid_projections(total)), prob.grid)
+    times = prob.init_times.double().numpy()
+    frames = compensated_frames(residual, path, prob.grid, times, prob.fbp_window_deg, prob.fbp_filter) * moving
+    return replace(moved, fbp=frames.astype(np.float32),
+                   centres=(path.at(times) * 2 / prob.grid.extent).astype(np.float32))

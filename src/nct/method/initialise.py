@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import torch
 
-from nct.method.background import moving_problem, static_start
+from nct.method.background import lone_mover, moving_problem, static_start
 from nct.method.conf import BackgroundConf, InitConf
 from nct.method.judge import sinogram_judge
 from nct.method.motion import Sightings, mask_sightings
@@ -51,7 +51,10 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
         if not static.moving.any():
             log.warning("background=image: nothing moves in these data (the FBP frames do not change over the "
                         "scan): the background holds the whole image and the objects start empty")
-        prob = moving_problem(prob, static)
+        moved = moving_problem(prob, static)
+        if n_objects == 1 and static.moving.any():
+            moved = lone_mover(prob, moved, static.moving)
+        prob = moved
     judge = None
     if init.levels == "sinogram":
         fitted = torch.from_numpy(prob.fit_views)
@@ -68,7 +71,8 @@ def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
     """Where the objects of ``masks`` [F, K, H, W] were seen at ``prob.init_times``: each mask's centroid
     and principal axis; a lone object's centre is its mass centroid read off the views' first
     moments (``prob.centres``; trajectory.py, exact in parallel beam, where each FBP frame's
-    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation), held by the fit."""
+    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation; over a
+    background, that path scaled into focus: background.py), held by the fit."""
     seen = mask_sightings(masks, prob.init_times)
     if prob.centres is None or masks.shape[1] > 1:
         return seen

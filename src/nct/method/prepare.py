@@ -72,7 +72,7 @@ class Problem:
     ``views`` (all of them; fits sample ``fit_views``, ``held_views`` score them), the FBP frames
     ``fbp`` [F, H, W] of the fitted views at ``init_times`` [F] (rotations), the ``units`` and the
     ``clock``; for a lone object, its mass centroid's ``centres`` [F, 2] at ``init_times`` read off
-    the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise)."""
+    the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise); the FBP frames' settings."""
 
     grid: ImageGrid
     loss: LossConf
@@ -84,6 +84,8 @@ class Problem:
     units: Units
     clock: Clock
     centres: np.ndarray | None = None
+    fbp_window_deg: float = 180.0
+    fbp_filter: str = "ramp"
 
     @property
     def span(self) -> float:
@@ -100,6 +102,12 @@ class Problem:
         """The misfit an empty image scores on ``check_views``: a fit no better than it explains nothing."""
         check = torch.from_numpy(self.check_views())
         return float(self.views.values[check].abs().sum(-1).mean()) / self.views.values.shape[1] / self.views.scale
+
+    def fitted_sinogram(self) -> Sinogram:
+        """The fitted views as a sinogram: method units, times in rotations."""
+        v, fitted = self.views, torch.from_numpy(self.fit_views)
+        return Sinogram(v.values[fitted].numpy(), v.angles[fitted].double().numpy(), v.times[fitted].double().numpy(),
+                        v.geometry)
 
     def held_losses(self, checked: np.ndarray) -> np.ndarray:
         """The held-out views' misfits [h] among ``checked`` ones (``check_views``): none when no view
@@ -132,4 +140,5 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
-    return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres)
+    return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres,
+                   fbp_window_deg, fbp_filter)

@@ -95,6 +95,13 @@ class Trajectory:
         """The centroid at ``times`` [T] s: [T, 2] (x, y) in the sinogram's length units."""
         return _fourier(self._tau(times) - self.span / 2, self.frequencies) @ self.coefficients
 
+    def scaled(self, scale: float, mean: np.ndarray, origin: np.ndarray) -> Trajectory:
+        """origin + scale·(c(t) − mean): the path of a part whose motion is ``scale`` times the
+        whole mass's (its share of the mass is 1/scale when the rest stands still), without rivals."""
+        coefficients = scale * self.coefficients
+        coefficients[0] += np.asarray(origin, dtype=np.float64) - scale * np.asarray(mean, dtype=np.float64)
+        return replace(self, coefficients=coefficients, rivals=())
+
     def ray_spread(self, times: np.ndarray) -> np.ndarray:
         """How far the rivals stray from this trajectory along the rays of the view taken at each of
         ``times`` [T] s, max_r |d(θ(t))·(c_r(t) − c(t))|: [T] length units (0 without rivals)."""
