@@ -55,13 +55,13 @@ def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times:
     return np.stack([shift(frame, (-cy, cx), order=1, mode="constant") for frame, (cx, cy) in zip(frames, centre)])
 
 
-def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> Trajectory:
+def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> tuple[Trajectory, float]:
     """The path of one mover over a static background: the whole mass's centroid path ``total``
     scaled about its mean by the factor whose centred views of ``residual`` (the views minus the
     background's start: the mover and a static remainder) give the FBP of largest energy, sum of
     squares over one rotation's window at each rotation's middle: the mover in focus, the remainder
     smeared. It starts where the focused mover sits (the centroid of its largest piece above half
-    the image's peak). In the units of ``residual`` (times, lengths)."""
+    the image's peak). In the units of ``residual`` (times, lengths); also the scale."""
     times = np.asarray(residual.times, dtype=np.float64)
     mean = total.at(times).mean(axis=0)
     turns = max(1, round(float(total.span)))
@@ -82,4 +82,4 @@ def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> Traj
     pieces, _ = label(focused > 0.5 * focused.max())
     largest = pieces == 1 + int(np.argmax(np.bincount(pieces.ravel())[1:]))
     x, y = grid.xy()
-    return total.scaled(scale, mean, np.array([x[largest].mean(), y[largest].mean()]))
+    return total.scaled(scale, mean, np.array([x[largest].mean(), y[largest].mean()])), scale
