@@ -7,7 +7,7 @@ as a failure. The breakdown point is the first setting (easy to hard) with media
 Writes runs.csv, summary.csv, breakdown.csv, stability.png and stability.md.
 
 Run: python benchmarks/stability.py [--out DIR] [--quick] [--axes full|quick] [--axis NAME ...] [--seeds 0 1 2 3 4]
-     [--jobs N]
+     [--jobs N] [--override KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -199,9 +199,11 @@ def main(argv: Sequence[str] | None = None) -> None:
                         help="run only this axis (repeatable; default: all three)")
     parser.add_argument("--base-displacement", type=float, default=40.0,
                         help="degrees per rotation of the circle on the noise and views axes (default 40)")
+    parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                        help="an nct override added to every NeuralCT run (repeatable), e.g. motion=auto")
     args = parser.parse_args(argv)
     seeds = args.seeds or ([0, 1] if args.quick else [0, 1, 2, 3, 4])
-    nct = scaled_steps(default_config(), 0.1) if args.quick else ()
+    nct = (*(scaled_steps(default_config(), 0.1) if args.quick else ()), *args.override)
     extra = QUICK_DATA if args.quick else ()
     command = "python benchmarks/stability.py " + " ".join(sys.argv[1:] if argv is None else argv)
     quick_axes = args.quick if args.axes is None else args.axes == "quick"

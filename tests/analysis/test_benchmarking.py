@@ -200,6 +200,15 @@ def test_speed_accuracy_runs_a_tiny_benchmark_end_to_end(tmp_path):
     assert "| scene | fbp | paper-tiny | broken |" in note and f"| circle_100 | {fbp['dice_median']:.3f} (" in note
 
 
+def test_stability_passes_overrides_to_the_neuralct_runs_only(tmp_path, monkeypatch):
+    stability = load_script("stability")
+    seen = {}
+    monkeypatch.setattr(stability, "run_benchmark", lambda out, stress, seeds, nct, *a, **kw: seen.update(nct=nct))
+    (tmp_path / "stability.md").write_text("")
+    stability.main(["--out", str(tmp_path), "--axis", "displacement", "--override", "motion=auto"])
+    assert seen["nct"] == ("motion=auto",)
+
+
 def test_stability_plans_every_setting_and_maps_failures(tmp_path):
     stability = load_script("stability")
     stress = stability.axes(quick=True, base_displacement=40)
