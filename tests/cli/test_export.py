@@ -153,6 +153,15 @@ def test_run_without_checkpoints_is_refused(run, tmp_path, capsys):
     assert "no checkpoint" in refused(capsys, copy, "--frames", 4)
 
 
+def test_a_checkpoint_of_an_older_nct_is_refused(run, tmp_path, capsys):
+    copy = shutil.copytree(run, tmp_path / "run")
+    path = load_run(copy).checkpoint
+    saved = torch.load(path, weights_only=True)
+    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k != "field.omega"}
+    torch.save(saved, path)
+    assert "written by an older nct (its checkpoint has no omega)" in refused(capsys, copy, "--frames", 4)
+
+
 def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):
     assert "not a run folder" in refused(capsys, tmp_path, "--frames", 4)
     (tmp_path / ".hydra").mkdir()

@@ -111,6 +111,10 @@ def load_run(run_dir: Path) -> FittedRun:
     weights = {k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")}
     if "background" in weights:
         net.set_background(weights["background"])
+    missing = sorted(set(net.state_dict()) - set(weights))
+    if missing:
+        raise InputError(f"{run_dir} was written by an older nct (its checkpoint has no {', '.join(missing)}): "
+                         "rerun it")
     net.load_state_dict(weights)
     net.eval()
     units = Units(metrics["init"]["length_unit"], metrics["init"]["intensity_unit"])
