@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from nct.acquisition.sinogram import Sinogram
-from nct.method.trajectory import centroid_projections, determinacy, fit_trajectory
+from nct.method.trajectory import (
+    centroid_projections,
+    determinacy,
+    fit_trajectory,
+    steady_mass,
+)
 from tests.conftest import GEOMETRIES, circle, closed_form_sinogram
 
 DISC = (0.12, -0.07, 0.15, 0.15, 0.0, 1.0)  # (cx, cy, a, b, angle, intensity): off-centre
@@ -65,3 +71,14 @@ def test_bad_inputs_are_refused_in_one_line():
         fit_trajectory(np.zeros(5), np.arange(5.0), np.zeros(5))
     with pytest.raises(ValueError, match="one length"):
         fit_trajectory(np.arange(4.0), np.arange(5.0), np.zeros(5))
+
+
+def test_a_rigid_mover_keeps_a_steady_mass_and_a_changing_one_does_not():
+    """The circle's views keep their mass; views whose mass swings by a third do not, nor does a
+    mover of a twentieth of the mass (``own``) behind a swing of 1 %."""
+    sino, _, _ = circle(150.0, views=180, size=64)
+    assert steady_mass(sino)
+    swing = 1 + np.sin(np.linspace(0, 2 * np.pi, sino.n_views))[:, None]
+    assert not steady_mass(replace(sino, values=sino.values * (1 + 0.5 * (swing - 1))))
+    mass = float(np.median(sino.values.sum(axis=1)))
+    assert not steady_mass(replace(sino, values=sino.values * (1 + 0.015 * (swing - 1))), own=mass / 20)

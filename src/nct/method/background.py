@@ -20,7 +20,7 @@ from scipy.ndimage import binary_dilation, binary_fill_holes, label
 from nct.acquisition.rebin import to_parallel
 from nct.method.compensate import compensated_frames, focused_path
 from nct.method.prepare import Problem
-from nct.method.trajectory import centroid_projections, fit_trajectory
+from nct.method.trajectory import centroid_projections, fit_trajectory, steady_mass
 from nct.physics.projector import project
 
 log = logging.getLogger(__name__)
@@ -31,11 +31,6 @@ PERCENTILE = 99.9  # moving_share is a share of the temporal std at this percent
 # over time is also this many times the median pixel's (noise) and this share of the frames' peak.
 NOISE_FACTOR = 3.0
 PEAK_SHARE = 0.02
-# One mover over a still rest keeps the views' total mass: a change (std over the scan) of this share
-# of the mover's own mass (the views minus the background's start) means something else moves too.
-# The vessel in a still body: 0.0016, the disc beside one 0.0003; the nodule's breathing lungs leave
-# a residual of negative mass.
-MASS_CHANGE = 0.1
 
 
 @dataclass(frozen=True)
@@ -87,14 +82,12 @@ def lone_mover(prob: Problem, moved: Problem, moving: np.ndarray) -> Problem:
     inside the ``moving`` region [H, W]. Its path is the whole mass's centroid path, read off
     ``prob``'s fitted views, scaled into focus on ``moved``'s (compensate.focused_path): the plain
     frames smear a small mover and their centroids lag its motion, by pixels at the scan's ends.
-    ``moved`` as it was where the views' total mass changes by MASS_CHANGE of the mover's (the
-    residual views' mass) or more: then something else moves too, the centroid's path not the mover's alone."""
+    ``moved`` as it was where the views' total mass is not steady against the mover's (the residual
+    views' mass; trajectory.steady_mass): then something else moves too, the centroid's path not the mover's."""
     total, residual = prob.fitted_sinogram(), moved.fitted_sinogram()
-    change = float(np.std(to_parallel(total).values.sum(axis=1)))
-    own = float(np.median(to_parallel(residual).values.sum(axis=1)))
-    if not change < MASS_CHANGE * own:
-        log.info("one object over the background: the views' mass changes by %.3g over the scan, its own is %.3g: "
-                 "something else moves too, and it starts from the FBP frames", change, own)
+    if not steady_mass(total, float(np.median(to_parallel(residual).values.sum(axis=1)))):
+        log.info("one object over the background: the views' mass changes by a tenth of its own or more: something "
+                 "else moves too, and it starts from the FBP frames")
         return moved
     path, scale = focused_path(residual, fit_trajectory(total.angles, total.times, centroid_projections(total)),
                                prob.grid)

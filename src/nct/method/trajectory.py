@@ -37,6 +37,11 @@ MAX_RATIO = 1e6  # prior amplitude / noise at most: float32 sinograms give centr
 RIVAL = 1.5  # rival priors' length scales: the evidence's ℓ divided and multiplied by this
 EQUAL = 0.1  # a rival fit is equally good when its RMS misfit is within this fraction of the best's
 MIN_MASS = 0.05  # a view holding less than this share of the median view's mass gives no centroid (NaN)
+# One rigid mover over a still rest keeps the views' total mass: a change (std over the scan) of this
+# share of the mover's own mass means it deforms or something else moves, and the centroid's path is
+# not the mover's. Circle, bar 0.0000, the subset's one-object scenes 0.0008-0.032 (noise), the
+# vessel in a still body 0.0016 of its own; letters 0.13, heart_cine 0.32 (benchmarks/results/ladder).
+MASS_CHANGE = 0.1
 UNDETERMINED_PX = 1.0  # `determinacy`: a larger spread along the rays (pixels) is undetermined; the circle
 # (128 px, 720 views) reads 0.22 px at 100°/rot, 1.28 at 200 and 7.6 at 300 over one rotation
 # (benchmarks/results/trajectory)
@@ -61,6 +66,14 @@ def centroid_projections(sino: Sinogram) -> np.ndarray:
     floor = MIN_MASS * max(float(np.median(mass)), 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(mass > floor, values @ sino.geometry.bin_positions / mass, np.nan)
+
+
+def steady_mass(sino: Sinogram, own: float | None = None) -> bool:
+    """Whether the views' total mass stays within MASS_CHANGE (std over the scan) of a mover's ``own``
+    (default: the views' median mass, the whole field one mover): its centroid's path is then the mover's."""
+    mass = (sino if isinstance(sino.geometry, ParallelGeometry) else to_parallel(sino)).values.sum(axis=1)
+    own = float(np.median(mass)) if own is None else own
+    return bool(float(np.std(mass)) < MASS_CHANGE * own)
 
 
 @dataclass(frozen=True)
