@@ -1,5 +1,4 @@
-"""Neural SDF fields: shapes, the static family, the Fourier basis in time, a lone object carried along
-its path, config validation."""
+"""Neural SDF fields: shapes, the static family, the Fourier basis in time, config validation."""
 
 from __future__ import annotations
 
@@ -10,7 +9,6 @@ import pytest
 import torch
 
 from nct.method.fields import GridField, ModelConf, build_field, upsample
-from nct.method.motion import Sightings
 
 XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
 SMALL = dict(width=16, depth=2, temporal_width=8, temporal_depth=2)
@@ -57,40 +55,6 @@ def test_static_model_has_no_temporal_terms():
     g = f.sdf(c, torch.tensor([0.0, 5.0]))
     torch.testing.assert_close(g[0], g[1])
     assert f.sdf_rate(c, torch.tensor([1.0])).abs().max() == 0
-
-
-def sightings(held: bool) -> Sightings:
-    """Two objects seen at t = 0, 0.5, 1 moving 4 px right and 2 px down (lattice of 32) over the scan."""
-    times = torch.tensor([0.0, 0.5, 1.0])
-    centres = torch.stack([times * 8 / 32, -times * 4 / 32], dim=-1)[:, None, :].expand(3, 2, 2)
-    return Sightings(times, centres, torch.zeros(3, 2), torch.full((2,), 0.2), held)
-
-
-@pytest.mark.parametrize("family", ["siren", "grid"])
-def test_a_held_object_is_carried_along_its_path(family):
-    """g(x - d(t), t), d the centres' path about its mean: at t = 1 (d = 2 px right, 1 down) the carried
-    lattice is the uncarried one moved by exactly that (bilinear at whole pixels), away from the borders."""
-    f = field(n_terms=3, family=family)
-    if family == "grid":  # grids start at zero: give them a shape
-        torch.nn.init.normal_(f.static.grids[0], generator=torch.Generator().manual_seed(1))
-    t = torch.tensor([1.0])
-    c = f.on_lattice(32)
-    still = f.sdf(c, t).reshape(2, 32, 32).detach()
-    f.start_motion(sightings(held=True))
-    carried = f.sdf(c, t).reshape(2, 32, 32).detach()
-    assert f.describe()["carried"] and "carry" in f.state_dict()
-    torch.testing.assert_close(carried[:, 4:-4, 4:-4], still[:, 3:-5, 2:-6], atol=1e-5, rtol=1e-4)
-
-
-def test_unheld_centres_and_the_static_rung_are_not_carried():
-    f = field(n_terms=3)
-    c, t = f.coefficients(XY), torch.tensor([0.0, 1.0])
-    before = f.sdf(c, t)
-    f.start_motion(sightings(held=False))
-    torch.testing.assert_close(f.sdf(c, t), before, rtol=0, atol=0)
-    still = field(n_terms=0)
-    still.start_motion(sightings(held=True))
-    assert not still.describe()["carried"]
 
 
 def test_frequencies_follow_seed_and_f_max():

@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
-from numpy.polynomial.legendre import legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -100,8 +99,8 @@ class SpaceTimeField(nn.Module):
         return self.shape_parameters()
 
     def start_motion(self, seen: Sightings) -> None:
-        """Start the field's motion where the objects were ``seen`` (motion.py); the static field has
-        none, the free one carries a lone object along its held path (``Field``)."""
+        """Start the field's motion where the objects were ``seen`` (motion.py); a field without
+        poses (static, free) has none to start."""
 
 
 class Field(SpaceTimeField):
@@ -110,50 +109,14 @@ class Field(SpaceTimeField):
 
     x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
     w_i ~ N(0, f_max) are drawn once from ``generator``.
-
-    A lone object whose centre is held (``Sightings.held``: its mass centroid's path read off the
-    views) is carried along that path: g(x - d(t), t), d(t) = c(t) minus its mean, a Legendre series
-    (``model.pose_terms_per_rotation`` per rotation of the ``span``) fitted to the start's centres.
-    The field then holds the shape in the object's own frame, and its freedom to slide each chord
-    along the rays where no view sees it goes with the translation the first moments fix (circle at
-    150 deg/rotation, seed 0: 0.993 carried, 0.869 not). The static rung is not carried.
     """
 
-    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
+    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
         super().__init__(n_objects)
         self.n_terms = conf.n_terms
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.n_carry = max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
-        self.register_buffer("span", torch.tensor(float(span)))
-        self.register_buffer("carry", torch.zeros(2, n_objects, self.n_carry))  # d(t)'s series, image units
-        self.register_buffer("carried", torch.tensor(False))
-
-    @torch.no_grad()
-    def start_motion(self, seen: Sightings) -> None:
-        """Carry the field along ``seen``'s centres where they are held (class docstring)."""
-        if not seen.held or self.temporal is None:
-            return
-        centres = (seen.centres - seen.centres.mean(dim=0)).to(self.carry)  # [F, K, 2]
-        basis = legendre(2 * seen.times.to(self.carry) / self.span - 1, self.n_carry)
-        fit = torch.linalg.lstsq(basis, centres.reshape(centres.shape[0], -1)).solution  # [n_carry, 2K]
-        self.carry.copy_(fit.T.reshape(self.n_objects, 2, self.n_carry).transpose(0, 1))
-        self.carried.fill_(True)
-
-    def carry_along(self, values: Tensor, t: Tensor) -> Tensor:
-        """``values`` [T, K, P] on a square lattice, moved along the carried path: v(x - d(t)) (bilinear,
-        the lattice's border held beyond it); unchanged where nothing is carried."""
-        if not bool(self.carried):
-            return values
-        n_t, k, p = values.shape
-        n = math.isqrt(p)
-        shift = torch.einsum("tn,ckn->tkc", legendre(2 * t / self.span - 1, self.n_carry), self.carry)
-        q = lattice_points(n, values.device)[None, None] - shift[:, :, None, :]  # [T, K, P, 2]
-        where = (q * q.new_tensor([1.0, -1.0])).reshape(n_t * k, n, n, 2)  # grid_sample's rows run down
-        moved = F.grid_sample(values.reshape(n_t * k, 1, n, n), where, mode="bilinear", padding_mode="border",
-                              align_corners=False)
-        return moved.reshape(n_t, k, p)
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -192,13 +155,13 @@ class Field(SpaceTimeField):
         static = c.static.expand(t.shape[0], -1, -1)
         if c.temporal is None:
             return static
-        return self.carry_along(static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal), t)
+        return static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal)
 
     def sdf_rate(self, c: Coefficients, t: Tensor) -> Tensor:
         """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model."""
         if c.temporal is None:
             return c.static.new_zeros(t.shape[0], *c.static.shape)
-        return self.carry_along(torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal), t)
+        return torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
@@ -207,7 +170,6 @@ class Field(SpaceTimeField):
             "n_terms": self.n_terms,
             "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
-            "carried": bool(self.carried),
         }
 
 
@@ -317,8 +279,8 @@ def lattice_interpolation(size: int, cells: int, device: torch.device | None = N
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, motion: str = "free",
                 span: float = 1.0) -> SpaceTimeField:
     """The field of ``conf.family`` holding ``motion`` (a rung of the ladder: static has no temporal
-    terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V, a lone object's
-    carried along its path) for ``n_objects`` objects on a scan of ``span`` rotations."""
+    terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V) for ``n_objects``
+    objects on a scan of ``span`` rotations."""
     from nct.method.motion import (  # motion.py builds on this module
         POSE,
         moved_template,
@@ -332,10 +294,4 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
         conf = replace(conf, n_terms=0)
     elif motion != "free":
         raise ValueError(f"motion {motion!r} is not a rung of the ladder")
-    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator, span)
-
-
-def legendre(s: Tensor, n: int) -> Tensor:
-    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
-    (``legvander``; times are data, not parameters, so no gradient flows through s)."""
-    return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)
+    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)
