@@ -17,10 +17,14 @@ import numpy as np
 import torch
 from scipy.ndimage import binary_dilation, binary_fill_holes, label
 
-from nct.acquisition.rebin import to_parallel
 from nct.method.compensate import compensated_frames, focused_path
 from nct.method.prepare import Problem
-from nct.method.trajectory import centroid_projections, fit_trajectory, steady_mass
+from nct.method.trajectory import (
+    centroid_projections,
+    fit_trajectory,
+    steady_mass,
+    view_masses,
+)
 from nct.physics.projector import project
 
 log = logging.getLogger(__name__)
@@ -75,7 +79,6 @@ def moving_problem(prob: Problem, start: StaticStart) -> Problem:
     return replace(prob, fbp=frames.astype(np.float32), views=replace(views, values=views.values - shown))
 
 
-
 def lone_mover(prob: Problem, moved: Problem, moving: np.ndarray) -> Problem:
     """``moved`` (`moving_problem` of ``prob``) for one object over the background: its ``centres``
     at the init times and FBP frames of its views with its translation undone (compensate.py),
@@ -85,7 +88,7 @@ def lone_mover(prob: Problem, moved: Problem, moving: np.ndarray) -> Problem:
     ``moved`` as it was where the views' total mass is not steady against the mover's (the residual
     views' mass; trajectory.steady_mass): then something else moves too, the centroid's path not the mover's."""
     total, residual = prob.fitted_sinogram(), moved.fitted_sinogram()
-    if not steady_mass(total, float(np.median(to_parallel(residual).values.sum(axis=1)))):
+    if not steady_mass(total, float(np.median(view_masses(residual)))):
         log.info("one object over the background: the views' mass changes by a tenth of its own or more: something "
                  "else moves too, and it starts from the FBP frames")
         return moved

@@ -62,6 +62,7 @@ def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> tupl
     squares over one rotation's window at each rotation's middle: the mover in focus, the remainder
     smeared. It starts where the focused mover sits (the centroid of its largest piece above half
     the image's peak). In the units of ``residual`` (times, lengths); also the scale."""
+    residual = to_parallel(residual)  # once, not at every scale tried
     times = np.asarray(residual.times, dtype=np.float64)
     mean = total.at(times).mean(axis=0)
     turns = max(1, round(float(total.span)))

@@ -68,10 +68,17 @@ def centroid_projections(sino: Sinogram) -> np.ndarray:
         return np.where(mass > floor, values @ sino.geometry.bin_positions / mass, np.nan)
 
 
+def view_masses(sino: Sinogram) -> np.ndarray:
+    """Each view's total, Σ_i p_i [V] float64 (fan beam rebinned first): the mass in the field at its instant."""
+    if not isinstance(sino.geometry, ParallelGeometry):
+        sino = to_parallel(sino)
+    return np.asarray(sino.values, dtype=np.float64).sum(axis=1)
+
+
 def steady_mass(sino: Sinogram, own: float | None = None) -> bool:
     """Whether the views' total mass stays within MASS_CHANGE (std over the scan) of a mover's ``own``
     (default: the views' median mass, the whole field one mover): its centroid's path is then the mover's."""
-    mass = (sino if isinstance(sino.geometry, ParallelGeometry) else to_parallel(sino)).values.sum(axis=1)
+    mass = view_masses(sino)
     own = float(np.median(mass)) if own is None else own
     return bool(float(np.std(mass)) < MASS_CHANGE * own)
 
