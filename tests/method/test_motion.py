@@ -13,13 +13,12 @@ from torch import nn
 
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, ModelConf
-from nct.method.fields import build_field, lattice_points
+from nct.method.fields import build_field, lattice_points, legendre
 from nct.method.motion import (
     POSE_SCALE,
     SPAN,
     GridMovedTemplate,
     MovedTemplate,
-    legendre,
     mask_sightings,
 )
 from nct.method.reconstruct import reconstruct

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
+from numpy.polynomial.legendre import legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -51,10 +52,13 @@ class Siren(nn.Module):
 
 @dataclass
 class Coefficients:
-    """The free field's networks evaluated at P points: static [K, P], temporal [2M, K, P] (None if M = 0)."""
+    """The free field's networks evaluated at P points: static [K, P], temporal [2M, K, P] (None if M = 0).
+    ``carry_to``: where the field is carried, the side of the lattice g is looked up on (the
+    coefficients then lie on the field's own lattice); None: g is at the coefficients' points."""
 
     static: Tensor
     temporal: Tensor | None
+    carry_to: int | None = None
 
 
 class SpaceTimeField(nn.Module):
@@ -99,8 +103,8 @@ class SpaceTimeField(nn.Module):
         return self.shape_parameters()
 
     def start_motion(self, seen: Sightings) -> None:
-        """Start the field's motion where the objects were ``seen`` (motion.py); a field without
-        poses (static, free) has none to start."""
+        """Start the field's motion where the objects were ``seen`` (motion.py); the static field has
+        none, the free one carries a lone object along its held path (``Field``)."""
 
 
 class Field(SpaceTimeField):
@@ -109,14 +113,39 @@ class Field(SpaceTimeField):
 
     x: points scaled to [-1, 1] (x right, y up); t: time in gantry rotations. The frequencies
     w_i ~ N(0, f_max) are drawn once from ``generator``.
+
+    A lone object whose centre is held (``Sightings.held``: its mass centroid's path read off the
+    views) is carried along that path: g(x, t) = h(x - d(t), t), h the sum above, d(t) = c(t) minus
+    its mean, a Legendre series (``model.pose_terms_per_rotation`` per rotation of the ``span``, as
+    the rigid rung's poses) fitted to the start's centres. h holds the shape in the object's own
+    frame; its freedom to slide each chord along the rays where no view sees it goes with the
+    translation the first moments fix. h is rendered on the field's own model.resolution^2 lattice
+    and moved by a bilinear lookup, two interpolation matrices per time (deterministic products,
+    and g one function of x whatever lattice asks for it). The static rung is not carried.
     """
 
-    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator) -> None:
+    def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
         super().__init__(n_objects)
         self.n_terms = conf.n_terms
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
+        self.side = conf.resolution
+        self.n_carry = max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
+        self.register_buffer("span", torch.tensor(float(span)))
+        self.register_buffer("carry", torch.zeros(2, n_objects, self.n_carry))  # d(t)'s series, image units
+        self.register_buffer("carried", torch.tensor(False))
+
+    @torch.no_grad()
+    def start_motion(self, seen: Sightings) -> None:
+        """Carry the field along ``seen``'s centres where they are held (class docstring)."""
+        if not seen.held or self.temporal is None:
+            return
+        centres = (seen.centres - seen.centres.mean(dim=0)).to(self.carry)  # [F, K, 2]
+        basis = legendre(2 * seen.times.to(self.carry) / self.span - 1, self.n_carry)
+        fit = torch.linalg.lstsq(basis, centres.reshape(centres.shape[0], -1)).solution  # [n_carry, 2K]
+        self.carry.copy_(fit.T.reshape(self.n_objects, 2, self.n_carry).transpose(0, 1))
+        self.carried.fill_(True)
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -130,7 +159,14 @@ class Field(SpaceTimeField):
         return self._split(self.static(xy).T, None if self.temporal is None else self.temporal(xy).T)
 
     def on_lattice(self, size: int) -> Coefficients:
-        """``coefficients`` at the pixel centres of a size x size image (rows down, P = size**2)."""
+        """What ``sdf`` needs for g at the pixel centres of a size x size image (rows down, P = size**2):
+        the coefficients there, or on the field's own lattice where it is carried."""
+        if not bool(self.carried):
+            return self.rendered(size)
+        return replace(self.rendered(self.side), carry_to=size)
+
+    def rendered(self, size: int) -> Coefficients:
+        """``coefficients`` at the pixel centres of a size x size image."""
         return self.coefficients(lattice_points(size, self.omega.device))
 
     def _split(self, static: Tensor, temporal: Tensor | None) -> Coefficients:
@@ -155,13 +191,30 @@ class Field(SpaceTimeField):
         static = c.static.expand(t.shape[0], -1, -1)
         if c.temporal is None:
             return static
-        return static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal)
+        return self.carry_along(static + torch.einsum("tm,mkp->tkp", self.basis(t), c.temporal), t, c.carry_to)
 
     def sdf_rate(self, c: Coefficients, t: Tensor) -> Tensor:
-        """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model."""
+        """dg/dt (per rotation) at times t [T]: [T, K, P]; zero for a static model. A carried field's
+        is its shape's rate in its own frame, carried: the tv_time term penalises a change of shape,
+        not the motion the path holds."""
         if c.temporal is None:
-            return c.static.new_zeros(t.shape[0], *c.static.shape)
-        return torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal)
+            size = c.static.shape[-1] if c.carry_to is None else c.carry_to ** 2
+            return c.static.new_zeros(t.shape[0], self.n_objects, size)
+        return self.carry_along(torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal), t, c.carry_to)
+
+    def carry_along(self, values: Tensor, t: Tensor, size: int | None) -> Tensor:
+        """h ``values`` [T, K, S^2] on the field's own lattice moved along the carried path and looked
+        up at the pixel centres of a size x size image: h(x - d(t)) [T, K, size^2] (bilinear, h's
+        border held beyond it); ``values`` unchanged where size is None (not carried)."""
+        if size is None:
+            return values
+        n_t, k, _ = values.shape
+        shift = torch.einsum("tn,ckn->tkc", legendre(2 * t / self.span - 1, self.n_carry), self.carry)  # [T, K, 2]
+        u = pixel_centres(size).to(values)
+        rows = interpolation_on_pixels(u[None, None] + shift[..., 1:], self.side)  # rows run down: -y + dy
+        cols = interpolation_on_pixels(u[None, None] - shift[..., :1], self.side)  # x - dx
+        h = values.reshape(n_t, k, self.side, self.side)
+        return (rows @ h @ cols.transpose(-1, -2)).reshape(n_t, k, size * size)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
@@ -170,6 +223,7 @@ class Field(SpaceTimeField):
             "n_terms": self.n_terms,
             "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
+            "carried": bool(self.carried),
         }
 
 
@@ -215,7 +269,7 @@ class GridField(Field):
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
         return MultiGrid(n_out, conf.temporal_resolution if temporal else conf.resolution, conf.levels)
 
-    def on_lattice(self, size: int) -> Coefficients:
+    def rendered(self, size: int) -> Coefficients:
         return self._split(self.static.on_lattice(size),
                            None if self.temporal is None else self.temporal.on_lattice(size))
 
@@ -239,17 +293,20 @@ def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
     return _linear_weights((u + 1) / 2 * (cells - 1), cells)
 
 
+def interpolation_on_pixels(u: Tensor, cells: int) -> Tensor:
+    """Linear interpolation from the pixel centres of a ``cells``-pixel axis spanning [-1, 1] to
+    coordinates u [..., n], constant beyond the outer centres: [..., n, cells]."""
+    return _linear_weights((u + 1) / 2 * cells - 0.5, cells)
+
+
 def _linear_weights(pos: Tensor, cells: int) -> Tensor:
-    """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [n] in node
-    units, constant beyond the ends: [n, cells]."""
+    """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [..., n] in node
+    units, constant beyond the ends: [..., n, cells]."""
     pos = pos.clamp(0, cells - 1)
     left = pos.floor().long().clamp(min=0, max=max(cells - 2, 0))
-    weight = pos - left
-    rows = torch.arange(pos.shape[0])
-    m = torch.zeros(pos.shape[0], cells, dtype=pos.dtype, device=pos.device)
-    m[rows, left] = 1 - weight
-    m[rows, left + 1] = weight
-    return m
+    weight = (pos - left)[..., None]
+    nodes = torch.arange(cells, device=pos.device)
+    return (nodes == left[..., None]) * (1 - weight) + (nodes == left[..., None] + 1) * weight
 
 
 @lru_cache(maxsize=8)
@@ -259,7 +316,7 @@ def upsampling_matrix(size: int, lattice: int, device: torch.device | None = Non
     of a ``size``-pixel image of the same extent: [size, lattice] (F.interpolate's
     align_corners=False, as a matrix: its backward is a product too, far cheaper on a CPU).
     Cached per device and dtype: do not modify."""
-    return _linear_weights((pixel_centres(size) + 1) / 2 * lattice - 0.5, lattice).to(device, dtype)
+    return interpolation_on_pixels(pixel_centres(size), lattice).to(device, dtype)
 
 
 def upsample(images: Tensor, size: int) -> Tensor:
@@ -279,8 +336,8 @@ def lattice_interpolation(size: int, cells: int, device: torch.device | None = N
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, motion: str = "free",
                 span: float = 1.0) -> SpaceTimeField:
     """The field of ``conf.family`` holding ``motion`` (a rung of the ladder: static has no temporal
-    terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V) for ``n_objects``
-    objects on a scan of ``span`` rotations."""
+    terms; rigid, affine: a moved template, motion.py; free: the paper's g_E + g_V, a lone object's
+    carried along its path) for ``n_objects`` objects on a scan of ``span`` rotations."""
     from nct.method.motion import (  # motion.py builds on this module
         POSE,
         moved_template,
@@ -294,4 +351,10 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
         conf = replace(conf, n_terms=0)
     elif motion != "free":
         raise ValueError(f"motion {motion!r} is not a rung of the ladder")
-    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator)
+    return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator, span)
+
+
+def legendre(s: Tensor, n: int) -> Tensor:
+    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
+    (``legvander``; times are data, not parameters, so no gradient flows through s)."""
+    return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)

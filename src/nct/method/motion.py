@@ -21,7 +21,6 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import torch.nn.functional as F
-from numpy.polynomial.legendre import legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -30,6 +29,7 @@ from nct.method.fields import (
     Siren,
     SpaceTimeField,
     lattice_points,
+    legendre,
     pixel_centres,
 )
 
@@ -65,12 +65,6 @@ class Lattice:
 
     points: Tensor
     template: Tensor | None
-
-
-def legendre(s: Tensor, n: int) -> Tensor:
-    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
-    (``legvander``; times are data, not parameters, so no gradient flows through s)."""
-    return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)
 
 
 class MovedTemplate(SpaceTimeField):
