@@ -4,6 +4,7 @@ its path, config validation."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -59,17 +60,19 @@ def test_static_model_has_no_temporal_terms():
     assert f.sdf_rate(c, torch.tensor([1.0])).abs().max() == 0
 
 
-def sightings(held: bool, px: float = 1.0) -> Sightings:
-    """Two objects seen at t = 0, 0.5, 1 moving 4 px right and 2 px down (of a 32-px image) over the
-    scan, times ``px``."""
+def sightings(held: bool, px: float = 1.0, reach: float = 0.6) -> Sightings:
+    """An object seen at t = 0, 0.5, 1 moving 4 px right and 2 px down (of a 32-px image) over the
+    scan, times ``px``; at ``reach`` 0.6 its shape's lattice spans the image's width."""
     times = torch.tensor([0.0, 0.5, 1.0])
-    centres = torch.stack([times * 8 / 32, -times * 4 / 32], dim=-1)[:, None, :].expand(3, 2, 2) * px
-    return Sightings(times, centres, torch.zeros(3, 2), torch.full((2,), 0.2), held)
+    centres = torch.stack([times * 8 / 32, -times * 4 / 32], dim=-1)[:, None, :] * px
+    return Sightings(times, centres, torch.zeros(3, 1), torch.full((1,), reach), held)
 
 
-def shaped(family: str, **kw):
-    """A two-object free field on its own 32^2 lattice, grids given a shape (they start at zero)."""
-    f = field(n_terms=3, family=family, resolution=32, **kw)
+def lone(family: str = "siren", n_terms: int = 3):
+    """A one-object free field carried on a 32^2 lattice, grids given a shape (they start at zero)."""
+    torch.manual_seed(0)  # the SIRENs' weights
+    f = build_field(ModelConf(**SMALL, n_terms=n_terms, family=family, carry_resolution=32), n_objects=1,
+                    generator=torch.Generator().manual_seed(0))
     if family == "grid":
         torch.nn.init.normal_(f.static.grids[0], generator=torch.Generator().manual_seed(1))
     return f
@@ -79,50 +82,51 @@ def shaped(family: str, **kw):
 def test_a_held_object_is_carried_along_its_path(family):
     """g(x - d(t), t), d the centres' path about its mean: at t = 1 (d = 2 px right, 1 down) the carried
     lattice is the uncarried one moved by exactly that (bilinear at whole pixels), away from the borders."""
-    f = shaped(family)
+    f = lone(family)
     t = torch.tensor([1.0])
-    still = f.sdf(f.on_lattice(32), t).reshape(2, 32, 32).detach()
+    still = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
     f.start_motion(sightings(held=True))
-    carried = f.sdf(f.on_lattice(32), t).reshape(2, 32, 32).detach()
+    carried = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
     assert f.describe()["carried"] and "carry" in f.state_dict()
-    torch.testing.assert_close(carried[:, 4:-4, 4:-4], still[:, 3:-5, 2:-6], atol=1e-5, rtol=1e-4)
+    torch.testing.assert_close(carried[4:-4, 4:-4], still[3:-5, 2:-6], atol=1e-5, rtol=1e-4)
 
 
 @pytest.mark.parametrize("family", ["siren", "grid"])
 def test_a_carried_field_is_one_function_of_x_whatever_the_lattice(family):
     """Every third pixel centre of a 96-px lattice is one of the 32-px lattice's: the same g and dg/dt
-    there, at a shift of a fraction of a pixel too."""
-    f = shaped(family)
-    f.start_motion(sightings(held=True, px=0.3))
+    there, with the shape's lattice over a part of the image and shifts of a fraction of a pixel."""
+    f = lone(family)
+    f.start_motion(sightings(held=True, px=0.3, reach=0.3))
     t = torch.tensor([0.2, 0.9])
     coarse, fine = f.on_lattice(32), f.on_lattice(96)
     for g in (f.sdf, f.sdf_rate):
-        torch.testing.assert_close(g(fine, t).reshape(2, 2, 96, 96)[..., 1::3, 1::3],
-                                   g(coarse, t).reshape(2, 2, 32, 32), atol=1e-5, rtol=1e-4)
+        torch.testing.assert_close(g(fine, t).reshape(2, 96, 96)[..., 1::3, 1::3],
+                                   g(coarse, t).reshape(2, 32, 32), atol=1e-5, rtol=1e-4)
 
 
 def test_a_carried_fit_is_deterministic():
     """Gradients through the carried lookup (interpolation matrices, not grid_sample) repeat exactly."""
     grads = []
     for _ in range(2):
-        torch.manual_seed(0)  # the SIRENs' weights
-        f = shaped("siren")
-        f.start_motion(sightings(held=True, px=0.3))
+        f = lone()
+        f.start_motion(sightings(held=True, px=0.3, reach=0.3))
         f.sdf(f.on_lattice(24), torch.linspace(0, 1, 5)).square().sum().backward()
         grads.append(torch.cat([p.grad.ravel() for p in f.shape_parameters()]))
     torch.testing.assert_close(grads[0], grads[1], rtol=0, atol=0)
 
 
-def test_unheld_centres_and_the_static_rung_are_not_carried():
-    f = field(n_terms=3)
+def test_unheld_centres_several_objects_and_the_static_rung_are_not_carried():
+    f = lone()
     c, t = f.coefficients(XY), torch.tensor([0.0, 1.0])
     before = f.sdf(c, t)
     f.start_motion(sightings(held=False))
     torch.testing.assert_close(f.sdf(f.coefficients(XY), t), before, rtol=0, atol=0)
-    assert not f.describe()["carried"]
-    still = field(n_terms=0)
-    still.start_motion(sightings(held=True))
-    assert not still.describe()["carried"]
+    for unmoved in (field(n_terms=3), lone(n_terms=0)):
+        seen = sightings(held=True)
+        if unmoved.n_objects == 2:
+            seen = replace(seen, centres=seen.centres.expand(3, 2, 2), reach=seen.reach.expand(2))
+        unmoved.start_motion(seen)
+        assert not unmoved.describe()["carried"]
 
 
 def test_frequencies_follow_seed_and_f_max():

@@ -116,12 +116,13 @@ class Field(SpaceTimeField):
 
     A lone object whose centre is held (``Sightings.held``: its mass centroid's path read off the
     views) is carried along that path: g(x, t) = h(x - d(t), t), h the sum above, d(t) = c(t) minus
-    its mean, a Legendre series (``model.pose_terms_per_rotation`` per rotation of the ``span``, as
-    the rigid rung's poses) fitted to the start's centres. h holds the shape in the object's own
+    its mean m, a Legendre series (``model.pose_terms_per_rotation`` per rotation of the ``span``,
+    as the rigid rung's poses) fitted to the start's centres. h holds the shape in the object's own
     frame; its freedom to slide each chord along the rays where no view sees it goes with the
-    translation the first moments fix. h is rendered on the field's own model.resolution^2 lattice
-    and moved by a bilinear lookup, two interpolation matrices per time (deterministic products,
-    and g one function of x whatever lattice asks for it). The static rung is not carried.
+    translation the first moments fix. h is rendered on a ``model.carry_resolution``^2 lattice over
+    the object's reach about m (``Sightings.cover``; its border held beyond) and moved by a bilinear
+    lookup, two interpolation matrices per time: deterministic products, and g one function of x
+    whatever lattice asks for it. The static rung is not carried.
     """
 
     def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
@@ -130,21 +131,24 @@ class Field(SpaceTimeField):
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.side = conf.resolution
+        self.side = conf.carry_resolution
         self.n_carry = max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
         self.register_buffer("span", torch.tensor(float(span)))
-        self.register_buffer("carry", torch.zeros(2, n_objects, self.n_carry))  # d(t)'s series, image units
+        self.register_buffer("carry", torch.zeros(2, self.n_carry))  # d(t)'s series, image units
+        self.register_buffer("centre", torch.zeros(2))  # m
+        self.register_buffer("extent", torch.tensor(1.0))  # h's lattice covers m +- this
         self.register_buffer("carried", torch.tensor(False))
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
-        """Carry the field along ``seen``'s centres where they are held (class docstring)."""
-        if not seen.held or self.temporal is None:
+        """Carry a lone object's field along ``seen``'s centres where they are held (class docstring)."""
+        if not seen.held or self.temporal is None or self.n_objects != 1:
             return
-        centres = (seen.centres - seen.centres.mean(dim=0)).to(self.carry)  # [F, K, 2]
+        centres = seen.centres[:, 0].to(self.carry)  # [F, 2]
+        self.centre.copy_(centres.mean(dim=0))
         basis = legendre(2 * seen.times.to(self.carry) / self.span - 1, self.n_carry)
-        fit = torch.linalg.lstsq(basis, centres.reshape(centres.shape[0], -1)).solution  # [n_carry, 2K]
-        self.carry.copy_(fit.T.reshape(self.n_objects, 2, self.n_carry).transpose(0, 1))
+        self.carry.copy_(torch.linalg.lstsq(basis, centres - self.centre).solution.T)
+        self.extent.copy_(seen.cover()[0])
         self.carried.fill_(True)
 
     @staticmethod
@@ -160,14 +164,16 @@ class Field(SpaceTimeField):
 
     def on_lattice(self, size: int) -> Coefficients:
         """What ``sdf`` needs for g at the pixel centres of a size x size image (rows down, P = size**2):
-        the coefficients there, or on the field's own lattice where it is carried."""
+        the coefficients there, or on h's own lattice where the field is carried."""
         if not bool(self.carried):
             return self.rendered(size)
-        return replace(self.rendered(self.side), carry_to=size)
+        return replace(self.rendered(self.side, self.centre, self.extent), carry_to=size)
 
-    def rendered(self, size: int) -> Coefficients:
-        """``coefficients`` at the pixel centres of a size x size image."""
-        return self.coefficients(lattice_points(size, self.omega.device))
+    def rendered(self, size: int, centre: Tensor | None = None, extent: Tensor | None = None) -> Coefficients:
+        """``coefficients`` at the pixel centres of a size x size lattice over ``centre`` +- ``extent``
+        (None: the image)."""
+        xy = lattice_points(size, self.omega.device)
+        return self.coefficients(xy if centre is None else centre + extent * xy)
 
     def _split(self, static: Tensor, temporal: Tensor | None) -> Coefficients:
         """Coefficients from static [K, P] and temporal [2MK, P] values."""
@@ -203,18 +209,17 @@ class Field(SpaceTimeField):
         return self.carry_along(torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal), t, c.carry_to)
 
     def carry_along(self, values: Tensor, t: Tensor, size: int | None) -> Tensor:
-        """h ``values`` [T, K, S^2] on the field's own lattice moved along the carried path and looked
-        up at the pixel centres of a size x size image: h(x - d(t)) [T, K, size^2] (bilinear, h's
-        border held beyond it); ``values`` unchanged where size is None (not carried)."""
+        """h ``values`` [T, 1, S^2] on its own lattice moved along the carried path and looked up at the
+        pixel centres of a size x size image: h(x - d(t)) [T, 1, size^2] (bilinear, h's border held
+        beyond it); ``values`` unchanged where size is None (not carried)."""
         if size is None:
             return values
-        n_t, k, _ = values.shape
-        shift = torch.einsum("tn,ckn->tkc", legendre(2 * t / self.span - 1, self.n_carry), self.carry)  # [T, K, 2]
+        shift = legendre(2 * t / self.span - 1, self.n_carry) @ self.carry.T + self.centre  # d(t) + m, [T, 2]
         u = pixel_centres(size).to(values)
-        rows = interpolation_on_pixels(u[None, None] + shift[..., 1:], self.side)  # rows run down: -y + dy
-        cols = interpolation_on_pixels(u[None, None] - shift[..., :1], self.side)  # x - dx
-        h = values.reshape(n_t, k, self.side, self.side)
-        return (rows @ h @ cols.transpose(-1, -2)).reshape(n_t, k, size * size)
+        rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, self.side)  # rows run down, y up
+        cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, self.side)
+        h = values.reshape(t.shape[0], self.side, self.side)
+        return (rows @ h @ cols.transpose(-1, -2)).reshape(t.shape[0], 1, size * size)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
@@ -251,13 +256,18 @@ class MultiGrid(nn.Module):
                                   align_corners=True) for g in self.grids)
         return total[:, 0, 0]
 
-    def on_lattice(self, size: int) -> Tensor:
-        """``forward`` at the pixel centres of a size x size image, [n_out, size**2]: bilinear
-        lookups on a lattice are separable, two small matrix products per level (much cheaper
-        than ``grid_sample``'s backward on a CPU)."""
+    def on_lattice(self, size: int, centre: Tensor | None = None, extent: Tensor | None = None) -> Tensor:
+        """``forward`` at the pixel centres of a size x size lattice over ``centre`` [2] +- ``extent``
+        (None: the image), [n_out, size**2]: bilinear lookups on a lattice are separable, two small
+        matrix products per level (much cheaper than ``grid_sample``'s backward on a CPU)."""
         total = 0
+        u = pixel_centres(size).to(self.grids[0].device)
         for g in self.grids:
-            rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
+            if centre is None:
+                rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
+            else:
+                rows = interpolation_matrix(centre[1] - extent * u, g.shape[-1])
+                cols = interpolation_matrix(centre[0] + extent * u, g.shape[-1])
             total = total + rows @ g[0] @ cols.T
         return total.reshape(total.shape[0], -1)
 
@@ -269,9 +279,9 @@ class GridField(Field):
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
         return MultiGrid(n_out, conf.temporal_resolution if temporal else conf.resolution, conf.levels)
 
-    def rendered(self, size: int) -> Coefficients:
-        return self._split(self.static.on_lattice(size),
-                           None if self.temporal is None else self.temporal.on_lattice(size))
+    def rendered(self, size: int, centre: Tensor | None = None, extent: Tensor | None = None) -> Coefficients:
+        return self._split(self.static.on_lattice(size, centre, extent),
+                           None if self.temporal is None else self.temporal.on_lattice(size, centre, extent))
 
 
 def pixel_centres(size: int) -> Tensor:

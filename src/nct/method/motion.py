@@ -57,6 +57,11 @@ class Sightings:
     reach: Tensor
     held: bool = False
 
+    def cover(self) -> Tensor:
+        """The half-width [K] a shape held in its object's frame covers: its reach with room
+        (``REACH_MARGIN``, ``REACH_PAD``)."""
+        return REACH_MARGIN * self.reach + REACH_PAD
+
 
 @dataclass(frozen=True)
 class Lattice:
@@ -155,7 +160,7 @@ class MovedTemplate(SpaceTimeField):
         self.pose[:3] = fit.T.reshape(3, self.n_objects, self.n_basis) / POSE_SCALE
         self.held[:2] = seen.held
         if seen.held:  # a free centre keeps SPAN: at a finer pitch it drifted along the rays (docstring)
-            self.extent.copy_((REACH_MARGIN * seen.reach + REACH_PAD).clamp(max=SPAN))
+            self.extent.copy_(seen.cover().clamp(max=SPAN))
 
     def describe(self) -> dict:
         """Capacity summary: the rung, parameter count, pose terms."""
