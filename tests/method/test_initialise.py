@@ -126,7 +126,8 @@ def test_one_object_starts_once(bright_and_faint):
     sino, times = bright_and_faint
     result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none", n_objects=1,
                          optim=replace(OPTIM, fit_steps=10), init=replace(INIT, starts=3))
-    assert result.init["starts_tried"] == 1 and [r["candidate"] for r in result.selection["table"]] == ["free"]
+    names = [r["candidate"] for r in result.selection["table"]]
+    assert result.init["starts_tried"] == 1 and names[0] == "free" and set(names) <= {"free", "free_restart"}
 
 
 def test_one_object_starts_where_the_sinograms_first_moments_put_it():

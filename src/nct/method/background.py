@@ -19,12 +19,7 @@ from scipy.ndimage import binary_dilation, binary_fill_holes, label
 
 from nct.method.compensate import compensated_frames, focused_path
 from nct.method.prepare import Problem
-from nct.method.trajectory import (
-    centroid_projections,
-    fit_trajectory,
-    steady_mass,
-    view_masses,
-)
+from nct.method.trajectory import centroid_path, steady_mass, view_masses
 from nct.physics.projector import project
 
 log = logging.getLogger(__name__)
@@ -86,14 +81,19 @@ def lone_mover(prob: Problem, moved: Problem, moving: np.ndarray) -> Problem:
     ``prob``'s fitted views, scaled into focus on ``moved``'s (compensate.focused_path): the plain
     frames smear a small mover and their centroids lag its motion, by pixels at the scan's ends.
     ``moved`` as it was where the views' total mass is not steady against the mover's (the residual
-    views' mass; trajectory.steady_mass): then something else moves too, the centroid's path not the mover's."""
+    views' mass; trajectory.steady_mass): then something else moves too, the centroid's path not the
+    mover's; and in fan beam, whose views give no path (trajectory.centroid_path)."""
     total, residual = prob.fitted_sinogram(), moved.fitted_sinogram()
     if not steady_mass(total, float(np.median(view_masses(residual)))):
         log.info("one object over the background: the views' mass changes by a tenth of its own or more: something "
                  "else moves too, and it starts from the FBP frames")
         return moved
-    path, scale = focused_path(residual, fit_trajectory(total.angles, total.times, centroid_projections(total)),
-                               prob.grid)
+    total_path = centroid_path(total)
+    if total_path is None:
+        log.info("one object over the background: fan beam gives no path to hold it to (trajectory.centroid_path); "
+                 "it starts from the FBP frames")
+        return moved
+    path, scale = focused_path(residual, total_path, prob.grid)
     log.info("one object over the background: its path is the mass centroid's scaled %.3g times into focus", scale)
     times = prob.init_times.double().numpy()
     frames = compensated_frames(residual, path, prob.grid, times, prob.fbp_window_deg, prob.fbp_filter) * moving

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
-from numpy.polynomial.legendre import legvander
+from numpy.polynomial.legendre import legfit, legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -146,8 +146,7 @@ class Field(SpaceTimeField):
             return
         centres = seen.centres[:, 0].to(self.carry)  # [F, 2]
         self.centre.copy_(centres.mean(dim=0))
-        basis = legendre(2 * seen.times.to(self.carry) / self.span - 1, self.n_carry)
-        self.carry.copy_(torch.linalg.lstsq(basis, centres - self.centre).solution.T)
+        self.carry.copy_(legendre_fit(2 * seen.times / self.span - 1, centres - self.centre, self.n_carry).T)
         self.extent.copy_(seen.cover()[0])
         self.carried.fill_(True)
 
@@ -368,3 +367,11 @@ def legendre(s: Tensor, n: int) -> Tensor:
     """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
     (``legvander``; times are data, not parameters, so no gradient flows through s)."""
     return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)
+
+
+def legendre_fit(s: Tensor, values: Tensor, n: int) -> Tensor:
+    """Least-squares coefficients [n, C] of P_0 .. P_{n-1} fitting ``values`` [F, C] at s [F], numpy's
+    (``legfit``, in float64: float32 LAPACK's answer changes with where its arrays lie in memory,
+    and a seeded run must repeat bit for bit)."""
+    fit = legfit(s.detach().cpu().double().numpy(), values.detach().cpu().double().numpy(), n - 1)
+    return torch.from_numpy(fit).to(values)

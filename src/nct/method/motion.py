@@ -30,6 +30,7 @@ from nct.method.fields import (
     SpaceTimeField,
     lattice_points,
     legendre,
+    legendre_fit,
     pixel_centres,
 )
 
@@ -154,8 +155,7 @@ class MovedTemplate(SpaceTimeField):
         half-width to its object's reach, holding the centres where ``seen`` says so; an affine map
         starts as a rotation."""
         targets = torch.cat([seen.centres.permute(2, 1, 0), seen.angles.T[None]]).to(self.pose)  # [3, K, F]
-        basis = self.basis(seen.times.to(self.pose))
-        fit = torch.linalg.lstsq(basis, targets.reshape(-1, targets.shape[-1]).T).solution  # [n_basis, 3K]
+        fit = legendre_fit(2 * seen.times / self.span - 1, targets.reshape(-1, targets.shape[-1]).T, self.n_basis)
         self.pose.zero_()
         self.pose[:3] = fit.T.reshape(3, self.n_objects, self.n_basis) / POSE_SCALE
         self.held[:2] = seen.held

@@ -20,7 +20,7 @@ from nct.method.compensate import compensated_frames
 from nct.method.conf import HeldoutConf, InitConf, LossConf
 from nct.method.normalise import Units, field_of_view
 from nct.method.stages import Views
-from nct.method.trajectory import centroid_projections, fit_trajectory, steady_mass
+from nct.method.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
 from nct.physics.projector import fbp_frames
 
@@ -120,8 +120,8 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     """The ``Problem`` of reconstructing ``sino`` on ``grid``: views split, FBP frames of the fitted
     views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak.
     With one object ``lone`` in the views (no background) whose mass stays steady (a rigid mover;
-    trajectory.steady_mass), its centroid's path is read off their first moments and the FBP frames
-    undo its translation (compensate.py)."""
+    trajectory.steady_mass), its centroid's path is read off their first moments (parallel beam:
+    trajectory.centroid_path) and the FBP frames undo its translation (compensate.py)."""
     clock = rotations_since_start(sino)
     fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
     n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
@@ -130,8 +130,8 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     grid = lengths.grid(grid)
     fitted = subset(lengths.sinogram(sino), fit_views)
     centres = None
-    if lone and steady_mass(fitted):
-        path = fit_trajectory(fitted.angles, fitted.times, centroid_projections(fitted))
+    path = centroid_path(fitted) if lone and steady_mass(fitted) else None
+    if path is not None:
         fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter)
         centres = path.at(init_times) * 2 / grid.extent
     else:

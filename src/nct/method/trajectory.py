@@ -68,6 +68,16 @@ def centroid_projections(sino: Sinogram) -> np.ndarray:
         return np.where(mass > floor, values @ sino.geometry.bin_positions / mass, np.nan)
 
 
+def centroid_path(sino: Sinogram) -> Trajectory | None:
+    """The mass centroid's path read off ``sino``'s first moments (`centroid_projections`,
+    `fit_trajectory`) where it can hold a mover: parallel beam only. A rebinned fan view mixes
+    instants within the fan angle; its moments put the circle at 100°/rot 7.5 px off its orbit (the
+    fan views' own instants make the source's path an exact answer instead). None in fan beam."""
+    if not isinstance(sino.geometry, ParallelGeometry):
+        return None
+    return fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
+
+
 def view_masses(sino: Sinogram) -> np.ndarray:
     """Each view's total, Σ_i p_i [V] float64 (fan beam rebinned first): the mass in the field at its instant."""
     if not isinstance(sino.geometry, ParallelGeometry):
