@@ -74,6 +74,7 @@ def test_runs_fits_and_is_seeded(acquisition, fitted):
     assert result.intensities[0] == pytest.approx(1.0, abs=0.25)  # estimated from the FBP frames
     assert set(result.stages) == {"free_init", "free_fit"} and result.stages["free_fit"]["steps"] == 40
     assert result.model["n_params"] > 0 and result.model["motion"] == "free" and not result.model["static"]
+    assert result.model["carried"]  # one object in parallel beam, its mass steady: carried along its path
     assert result.selection["winner"] == "free" and [r["verdict"] for r in result.selection["table"]] == ["winner"]
     np.testing.assert_array_equal(run(sino, times).frames, result.frames)
     assert not np.array_equal(run(sino, times, seed=1).frames, result.frames)

@@ -10,6 +10,7 @@ import pytest
 
 from nct.acquisition.sinogram import Sinogram
 from nct.method.trajectory import (
+    centroid_path,
     centroid_projections,
     determinacy,
     fit_trajectory,
@@ -49,6 +50,20 @@ def test_slow_motion_is_recovered_within_a_tenth_of_a_pixel():
     trajectory = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
     assert np.linalg.norm(trajectory.at(sino.times) - truth, axis=1).max() < 0.1 * pixel
     assert trajectory.residual < 0.01 * pixel
+
+
+@pytest.mark.parametrize("name", ["parallel", "parallel-offset", "fan-flat", "fan-curved"])
+def test_a_path_holds_a_mover_in_parallel_beam_only(name):
+    """centroid_path: the still disc's centre in parallel beam; None in fan beam, whose rebinned views
+    mix instants (the circle at 100°/rot came out 7.5 px off at 64 px)."""
+    geometry = GEOMETRIES[name]
+    angles = np.linspace(0, 2 * math.pi, 90, endpoint=False)
+    values = closed_form_sinogram(geometry, angles, (DISC,), sub_rays=4)
+    path = centroid_path(Sinogram(values.astype(np.float32), angles, angles / (2 * math.pi) * 0.25, geometry))
+    if name.startswith("fan"):
+        assert path is None
+    else:
+        assert np.abs(path.at(np.array([0.0, 0.1])) - DISC[:2]).max() < 1e-3
 
 
 def test_the_verdict_is_determined_at_100_deg_and_undetermined_at_300_deg_per_rotation():
