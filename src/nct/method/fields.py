@@ -311,11 +311,12 @@ def interpolation_on_pixels(u: Tensor, cells: int) -> Tensor:
 def _linear_weights(pos: Tensor, cells: int) -> Tensor:
     """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [..., n] in node
     units, constant beyond the ends: [..., n, cells]."""
+    if cells == 1:
+        return pos.new_ones(*pos.shape, 1)
     pos = pos.clamp(0, cells - 1)
-    left = pos.floor().long().clamp(min=0, max=max(cells - 2, 0))
-    weight = (pos - left)[..., None]
-    nodes = torch.arange(cells, device=pos.device)
-    return (nodes == left[..., None]) * (1 - weight) + (nodes == left[..., None] + 1) * weight
+    left = pos.floor().long().clamp(max=cells - 2)[..., None]
+    weight = pos[..., None] - left
+    return pos.new_zeros(*pos.shape, cells).scatter_(-1, left, 1 - weight).scatter_(-1, left + 1, weight)
 
 
 @lru_cache(maxsize=8)
