@@ -132,7 +132,7 @@ class Field(SpaceTimeField):
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
         self.side = conf.carry_resolution
-        self.n_carry = max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
+        self.n_carry = series_terms(conf, span)
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("carry", torch.zeros(2, self.n_carry))  # d(t)'s series, image units
         self.register_buffer("centre", torch.zeros(2))  # m
@@ -146,7 +146,7 @@ class Field(SpaceTimeField):
             return
         centres = seen.centres[:, 0].to(self.carry)  # [F, 2]
         self.centre.copy_(centres.mean(dim=0))
-        self.carry.copy_(legendre_fit(2 * seen.times / self.span - 1, centres - self.centre, self.n_carry).T)
+        self.carry.copy_(legendre_fit(on_scan(seen.times, self.span), centres - self.centre, self.n_carry).T)
         self.extent.copy_(seen.cover()[0])
         self.carried.fill_(True)
 
@@ -203,8 +203,7 @@ class Field(SpaceTimeField):
         is its shape's rate in its own frame, carried: the tv_time term penalises a change of shape,
         not the motion the path holds."""
         if c.temporal is None:
-            size = c.static.shape[-1] if c.carry_to is None else c.carry_to ** 2
-            return c.static.new_zeros(t.shape[0], self.n_objects, size)
+            return c.static.new_zeros(t.shape[0], *c.static.shape)
         return self.carry_along(torch.einsum("tm,mkp->tkp", self.basis_rate(t), c.temporal), t, c.carry_to)
 
     def carry_along(self, values: Tensor, t: Tensor, size: int | None) -> Tensor:
@@ -213,7 +212,7 @@ class Field(SpaceTimeField):
         beyond it); ``values`` unchanged where size is None (not carried)."""
         if size is None:
             return values
-        shift = legendre(2 * t / self.span - 1, self.n_carry) @ self.carry.T + self.centre  # d(t) + m, [T, 2]
+        shift = legendre(on_scan(t, self.span), self.n_carry) @ self.carry.T + self.centre  # d(t) + m, [T, 2]
         u = pixel_centres(size).to(values)
         rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, self.side)  # rows run down, y up
         cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, self.side)
@@ -260,11 +259,11 @@ class MultiGrid(nn.Module):
         (None: the image), [n_out, size**2]: bilinear lookups on a lattice are separable, two small
         matrix products per level (much cheaper than ``grid_sample``'s backward on a CPU)."""
         total = 0
-        u = pixel_centres(size).to(self.grids[0].device)
         for g in self.grids:
             if centre is None:
                 rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
             else:
+                u = pixel_centres(size).to(g.device)
                 rows = interpolation_matrix(centre[1] - extent * u, g.shape[-1])
                 cols = interpolation_matrix(centre[0] + extent * u, g.shape[-1])
             total = total + rows @ g[0] @ cols.T
@@ -362,6 +361,18 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
     elif motion != "free":
         raise ValueError(f"motion {motion!r} is not a rung of the ladder")
     return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator, span)
+
+
+def series_terms(conf: ModelConf, span: float) -> int:
+    """Legendre terms of a motion series over a scan of ``span`` rotations: ``model.pose_terms_per_rotation``
+    per rotation, at least 2 (the rigid and affine poses, the carried path)."""
+    return max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
+
+
+def on_scan(t: Tensor, span: Tensor) -> Tensor:
+    """Times t (rotations) mapped to [-1, 1] over a scan of ``span`` rotations: where Legendre
+    polynomials are orthogonal."""
+    return 2 * t / span - 1
 
 
 def legendre(s: Tensor, n: int) -> Tensor:

@@ -15,7 +15,6 @@ view's rays that the data cannot see, which turns with the gantry at one cycle p
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +30,9 @@ from nct.method.fields import (
     lattice_points,
     legendre,
     legendre_fit,
+    on_scan,
     pixel_centres,
+    series_terms,
 )
 
 SPAN = 2.0  # a template covers at most [-SPAN, SPAN]^2 about its centre: the whole image for any centre in it
@@ -91,7 +92,7 @@ class MovedTemplate(SpaceTimeField):
     def __init__(self, conf: ModelConf, motion: str, n_objects: int, span: float) -> None:
         super().__init__(n_objects)
         self.motion = motion
-        self.n_basis = max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
+        self.n_basis = series_terms(conf, span)
         self.template = self.make_template(conf, n_objects)
         self.side = conf.resolution
         self.pose = nn.Parameter(torch.zeros(len(POSE[motion]), n_objects, self.n_basis))
@@ -117,7 +118,7 @@ class MovedTemplate(SpaceTimeField):
 
     def basis(self, t: Tensor) -> Tensor:
         """The Legendre basis over the scan at times t [T] (rotations): [T, n_basis]."""
-        return legendre(2 * t / self.span - 1, self.n_basis)
+        return legendre(on_scan(t, self.span), self.n_basis)
 
     def poses(self, t: Tensor) -> Tensor:
         """Every pose parameter (``POSE``) at times t [T]: [T, C, K]."""
@@ -155,7 +156,7 @@ class MovedTemplate(SpaceTimeField):
         half-width to its object's reach, holding the centres where ``seen`` says so; an affine map
         starts as a rotation."""
         targets = torch.cat([seen.centres.permute(2, 1, 0), seen.angles.T[None]]).to(self.pose)  # [3, K, F]
-        fit = legendre_fit(2 * seen.times / self.span - 1, targets.reshape(-1, targets.shape[-1]).T, self.n_basis)
+        fit = legendre_fit(on_scan(seen.times, self.span), targets.reshape(-1, targets.shape[-1]).T, self.n_basis)
         self.pose.zero_()
         self.pose[:3] = fit.T.reshape(3, self.n_objects, self.n_basis) / POSE_SCALE
         self.held[:2] = seen.held
