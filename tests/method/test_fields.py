@@ -115,6 +115,20 @@ def test_a_carried_fit_is_deterministic():
     torch.testing.assert_close(grads[0], grads[1], rtol=0, atol=0)
 
 
+def test_a_carried_shape_has_the_lattice_density_over_its_reach_and_keeps_it_on_reload():
+    """32 pixels per field of view over a reach 1.5 x 0.3 + 0.1 = 0.55 of it: 18 a side; a field loaded
+    from the state dict renders the same lattice and the same g."""
+    f = lone()
+    f.start_motion(sightings(held=True, px=0.3, reach=0.3))
+    assert f.side == 18 and f.on_lattice(32).static.shape == (1, 18 * 18)
+    loaded = lone()
+    assert loaded.side == 32  # not carried: the whole field
+    loaded.load_state_dict(f.state_dict())
+    t = torch.tensor([0.3])
+    assert loaded.side == 18
+    torch.testing.assert_close(loaded.sdf(loaded.on_lattice(32), t), f.sdf(f.on_lattice(32), t), rtol=0, atol=0)
+
+
 def test_unheld_centres_several_objects_and_the_static_rung_are_not_carried():
     f = lone()
     c, t = f.coefficients(XY), torch.tensor([0.0, 1.0])

@@ -37,10 +37,12 @@ class ModelConf:
     the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse. A moved
     template spans twice the field of view: on grids of twice these cells per side (grid), or a
     SIREN rendered on resolution x resolution points (siren; motion.py).
-    carry_resolution: side of the lattice over its object's reach on which a carried free field
-        renders its shape (fields.py): 64 costs the free field's steps ~4 % more; 128 (over the whole
-        image, seed 0) took the default run 126.6 s against 83.9 s at 64 (two runs side by side), for
-        Dice 0.997 against 0.998.
+    carry_resolution: pixels per field of view of the lattice on which a carried free field renders
+        its shape, over its object's reach only (fields.py): 64, the density of an uncarried field's
+        first-pass lattice (optim.coarse_size). 64 pixels a side over the reach instead (1.8x the
+        density on the default circle) took the default run ~1.4x as long as a whole process and
+        scored within 0.001 on it (seeds 0-4) and within 0.004 on the generalisation subset's lone
+        movers, scene088 0.017 lower (benchmarks/results/ladder, session 38).
     n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
     f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
         rotation (time is measured in rotations from the first view). Keep it well below 1: a

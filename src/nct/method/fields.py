@@ -119,10 +119,10 @@ class Field(SpaceTimeField):
     its mean m, a Legendre series (``model.pose_terms_per_rotation`` per rotation of the ``span``,
     as the rigid rung's poses) fitted to the start's centres. h holds the shape in the object's own
     frame; its freedom to slide each chord along the rays where no view sees it goes with the
-    translation the first moments fix. h is rendered on a ``model.carry_resolution``^2 lattice over
-    the object's reach about m (``Sightings.cover``; its border held beyond) and moved by a bilinear
-    lookup, two interpolation matrices per time: deterministic products, and g one function of x
-    whatever lattice asks for it. The static rung is not carried.
+    translation the first moments fix. h is rendered on a lattice over the object's reach about m
+    (``Sightings.cover``; its border held beyond), ``model.carry_resolution`` pixels per field of view
+    (``side``), and moved by a bilinear lookup, two interpolation matrices per time: deterministic
+    products, and g one function of x whatever lattice asks for it. The static rung is not carried.
     """
 
     def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
@@ -131,13 +131,19 @@ class Field(SpaceTimeField):
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.side = conf.carry_resolution
+        self.resolution = conf.carry_resolution
         self.n_carry = series_terms(conf, span)
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("carry", torch.zeros(2, self.n_carry))  # d(t)'s series, image units
         self.register_buffer("centre", torch.zeros(2))  # m
         self.register_buffer("extent", torch.tensor(1.0))  # h's lattice covers m +- this
         self.register_buffer("carried", torch.tensor(False))
+
+    @property
+    def side(self) -> int:
+        """Pixels a side of h's lattice: ``model.carry_resolution`` per field of view over the share
+        ``extent`` of it that the lattice covers (from the buffer, so a reloaded field has its own)."""
+        return max(2, math.ceil(self.resolution * float(self.extent) - 1e-6))
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
@@ -214,9 +220,10 @@ class Field(SpaceTimeField):
             return values
         shift = legendre(on_scan(t, self.span), self.n_carry) @ self.carry.T + self.centre  # d(t) + m, [T, 2]
         u = pixel_centres(size).to(values)
-        rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, self.side)  # rows run down, y up
-        cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, self.side)
-        h = values.reshape(t.shape[0], self.side, self.side)
+        side = math.isqrt(values.shape[-1])
+        rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, side)  # rows run down, y up
+        cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, side)
+        h = values.reshape(t.shape[0], side, side)
         return (rows @ h @ cols.transpose(-1, -2)).reshape(t.shape[0], 1, size * size)
 
     def describe(self) -> dict:

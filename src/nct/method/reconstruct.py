@@ -96,7 +96,7 @@ def candidates(motion: SelectionConf, starts: list[Start], span: float) -> list[
 @torch.no_grad()
 def field_frames(fit: FieldStage, times: torch.Tensor, chunk: int = 32) -> np.ndarray:
     """Algorithm 5: the field sampled on the grid at ``times`` [T] (rotations): [T, K, H, W] f32."""
-    return np.concatenate([fit.grid_sdf(part.to(fit.device))[0].cpu().numpy() for part in times.split(chunk)])
+    return np.concatenate([fit.grid_sdf(part.to(fit.device)).cpu().numpy() for part in times.split(chunk)])
 
 
 def reconstruct(

@@ -94,16 +94,16 @@ class FieldStage(L.LightningModule):
         self.lattice = min(lattice or grid.size, grid.size)
         self.heldout_history: HeldoutHistory = []
 
-    def grid_sdf(self, times: Tensor) -> tuple[Tensor, Tensor]:
-        """SDF frames [T, K, H, W] at ``times`` [T] (rotations) and dg/dt [T, K, P] in FOV sides per
-        rotation. The field is evaluated on ``lattice``^2 points (P) and upsampled bilinearly to the grid."""
+    def grid_sdf(self, times: Tensor) -> Tensor:
+        """SDF frames [T, K, H, W] at ``times`` [T] (rotations): the field evaluated on ``lattice``^2
+        points and upsampled bilinearly to the grid."""
+        return self.on_grid(self.field.sdf(self.field.on_lattice(self.lattice), times))
+
+    def on_grid(self, values: Tensor) -> Tensor:
+        """Values [T, K, P] on the ``lattice``^2 points as frames [T, K, H, W] on the grid."""
         n = self.lattice
-        c = self.field.on_lattice(n)
-        rate = self.field.sdf_rate(c, times) / self.grid.extent
-        sdf = self.field.sdf(c, times).reshape(times.shape[0], self.field.n_objects, n, n)
-        if n < self.grid.size:
-            sdf = upsample(sdf, self.grid.size)
-        return sdf, rate
+        frames = values.reshape(values.shape[0], self.field.n_objects, n, n)
+        return upsample(frames, self.grid.size) if n < self.grid.size else frames
 
     def log_due(self, values: dict[str, Tensor]) -> None:
         """Log ``values`` on the steps the Trainer writes (its count starts at 1) and the last step
@@ -144,7 +144,7 @@ class InitFit(FieldStage):
         return [{"params": self.field.frame_parameters(), "name": "field"}]
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
-        sdf, _ = self.grid_sdf(self.times[batch])
+        sdf = self.grid_sdf(self.times[batch])
         sdf_misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
         eikonal = eikonal_loss(*spatial_gradient(sdf, self.grid.pixel_size))
         loss = sdf_misfit + self.loss_conf.init_eikonal * eikonal
@@ -195,7 +195,10 @@ class SinogramFit(FieldStage):
 
     def training_step(self, batch: Tensor, batch_idx: int) -> dict[str, Tensor]:
         band = self.band()
-        sdf, rate = self.grid_sdf(self.times[batch])
+        times = self.times[batch]
+        c = self.field.on_lattice(self.lattice)
+        sdf = self.on_grid(self.field.sdf(c, times))
+        rate = self.field.sdf_rate(c, times) / self.grid.extent  # dg/dt [T, K, P], FOV sides per rotation: tv_time's
         sinogram = misfit(self.render(sdf, batch, band), self.values[batch],
                           None if self.sigma is None else self.sigma[batch], self.scale)
         gx, gy = spatial_gradient(sdf, self.grid.pixel_size)
@@ -216,7 +219,7 @@ class SinogramFit(FieldStage):
         """|rendered - measured| summed over each view's bins, with the final band, over the data's
         scale: [v] for ``views`` [v]."""
         band = self.render_conf.band_px * self.grid.pixel_size
-        sdf, _ = self.grid_sdf(self.times[views])
+        sdf = self.grid_sdf(self.times[views])
         return (self.render(sdf, views, band) - self.values[views]).abs().sum(-1) / self.scale
 
     def misfit_sum(self, views: Tensor) -> Tensor:

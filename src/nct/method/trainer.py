@@ -175,14 +175,14 @@ def evenly(times: Tensor, n: int) -> Tensor:
 def init_preview(stage: InitFit, n: int) -> Tensor:
     """Target | fitted SDF > 0 at n evenly spaced target times: [2, n, H, W] in [0, 1]."""
     pick = evenly(stage.times, n)
-    sdf, _ = stage.grid_sdf(stage.times[pick])
+    sdf = stage.grid_sdf(stage.times[pick])
     return torch.stack([(stage.targets[pick] > 0).any(1), (sdf > 0).any(1)]).float()
 
 
 @torch.no_grad()
 def fit_preview(stage: SinogramFit, n: int) -> Tensor:
     """Intensity frames at n evenly spaced view times, at the current band: [1, n, H, W]."""
-    sdf, _ = stage.grid_sdf(stage.times[evenly(stage.times, n)])
+    sdf = stage.grid_sdf(stage.times[evenly(stage.times, n)])
     return intensity(sdf, stage.intensities, stage.band(), stage.render_conf.mu)[None]
 
 
@@ -190,7 +190,7 @@ def fit_preview(stage: SinogramFit, n: int) -> Tensor:
 def fit_residual(stage: SinogramFit, n: int) -> Tensor:
     """Rendered minus measured sinogram at n evenly spaced views, over the data's max: [n, n_bins]."""
     pick = evenly(stage.times, n)
-    sdf, _ = stage.grid_sdf(stage.times[pick])
+    sdf = stage.grid_sdf(stage.times[pick])
     return (stage.render(sdf, pick, stage.band()) - stage.values[pick]) / stage.values.abs().max().clamp_min(1e-12)
 
 
