@@ -116,8 +116,12 @@ def test_a_carried_fit_is_deterministic():
 
 
 def test_a_carried_shape_has_the_lattice_density_over_its_reach_and_keeps_it_on_reload():
-    """32 pixels per field of view over a reach 1.5 x 0.3 + 0.1 = 0.55 of it: 18 a side; a field loaded
-    from the state dict renders the same lattice and the same g."""
+    """32 pixels per field of view over a reach 1.5 x 0.3 + 0.1 = 0.55 of it: 18 a side, and no more
+    than 32 over a reach wider than the field; a field loaded from the state dict renders the same
+    lattice and the same g."""
+    wide = lone()
+    wide.start_motion(sightings(held=True, px=0.3, reach=0.8))
+    assert wide.side == 32
     f = lone()
     f.start_motion(sightings(held=True, px=0.3, reach=0.3))
     assert f.side == 18 and f.on_lattice(32).static.shape == (1, 18 * 18)

@@ -142,8 +142,9 @@ class Field(SpaceTimeField):
     @property
     def side(self) -> int:
         """Pixels a side of h's lattice: ``model.carry_resolution`` per field of view over the share
-        ``extent`` of it that the lattice covers (from the buffer, so a reloaded field has its own)."""
-        return max(2, math.ceil(self.resolution * float(self.extent) - 1e-6))
+        ``extent`` of it that the lattice covers, at most ``carry_resolution`` (a carried field renders
+        no more points than an uncarried one); from the buffer, so a reloaded field has its own."""
+        return max(2, math.ceil(self.resolution * min(float(self.extent), 1.0) - 1e-6))
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
