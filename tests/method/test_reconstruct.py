@@ -172,15 +172,15 @@ def test_poisson_data_term_is_l1_on_noiseless_data_and_fits_noisy_data(acquisiti
 
 
 def test_a_fit_that_loses_its_way_enters_a_restart_at_half_the_rates(acquisition):
-    """An intensity rate of 3 throws a(k) off (misfit 0.17 from 0.094); a restart of the same
+    """An intensity rate of 3.5 throws a(k) off (misfit 0.56 from 0.094); a restart of the same
     candidate from its InitFit at half the rates joins the tournament, does not lose its way, and wins."""
     sino, times = acquisition
-    result = run(sino, times, replace(OPTIM, intensity_lr=3.0))
+    result = run(sino, times, replace(OPTIM, intensity_lr=3.5))
     fits = {k: v for k, v in result.stages.items() if k.endswith("_fit")}
     assert list(fits) == ["free_fit", "free_restart_fit"]
     assert fits["free_fit"]["misfit_end"] > 1.5 * fits["free_fit"]["misfit_start"]
     assert fits["free_restart_fit"]["misfit_start"] == fits["free_fit"]["misfit_start"]  # the same InitFit
-    assert fits["free_restart_fit"]["misfit_end"] < fits["free_restart_fit"]["misfit_start"]  # measured 0.053 from 0.094
+    assert fits["free_restart_fit"]["misfit_end"] < fits["free_restart_fit"]["misfit_start"]  # measured 0.074 from 0.094
     assert result.selection["winner"] == "free_restart"
     assert result.heldout_loss == pytest.approx(fits["free_restart_fit"]["misfit_end"], rel=1e-5)
 
