@@ -38,11 +38,12 @@ class ModelConf:
     template spans twice the field of view: on grids of twice these cells per side (grid), or a
     SIREN rendered on resolution x resolution points (siren; motion.py).
     carry_resolution: pixels per field of view of the lattice on which a carried free field renders
-        its shape, over its object's reach only, at most this many a side (fields.py): 64, the density
-        and the most points of an uncarried field's first-pass lattice (optim.coarse_size). 64 pixels a side over the reach instead (1.8x the
-        density on the default circle) took the default run ~1.4x as long as a whole process and
-        scored within 0.001 on it (seeds 0-4) and within 0.004 on the generalisation subset's lone
-        movers, scene088 0.017 lower (benchmarks/results/ladder, session 38).
+        its shape, over its object's reach only, at most this many a side (fields.py): 64, the
+        density and the most points of an uncarried field's first-pass lattice (optim.coarse_size).
+        64 pixels a side over the reach instead (1.8x the density on the default circle) took the
+        default run 1.43x as long as a whole process and scored within 0.001 on it (seeds 0-4) and
+        within 0.004 on the generalisation subset's lone movers, scene088 0.017 lower
+        (benchmarks/results/ladder, session 38).
     n_terms: M, Fourier terms of g_V; 0 gives a static model (no temporal terms).
     f_max: standard deviation of the frequencies omega_i ~ N(0, f_max) in cycles per gantry
         rotation (time is measured in rotations from the first view). Keep it well below 1: a
