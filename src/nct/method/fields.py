@@ -131,7 +131,7 @@ class Field(SpaceTimeField):
         self.static = self.spatial(conf, n_objects, temporal=False)
         self.temporal = self.spatial(conf, 2 * conf.n_terms * n_objects, temporal=True) if conf.n_terms else None
         self.register_buffer("omega", torch.randn(conf.n_terms, generator=generator) * conf.f_max)
-        self.resolution = conf.carry_resolution
+        self.carry_resolution = conf.carry_resolution
         self.n_carry = series_terms(conf, span)
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("carry", torch.zeros(2, self.n_carry))  # d(t)'s series, image units
@@ -144,7 +144,7 @@ class Field(SpaceTimeField):
         """Pixels a side of h's lattice: ``model.carry_resolution`` per field of view over the share
         ``extent`` of it that the lattice covers, at most ``carry_resolution`` (a carried field renders
         no more points than an uncarried one); from the buffer, so a reloaded field has its own."""
-        return max(2, math.ceil(self.resolution * min(float(self.extent), 1.0) - 1e-6))
+        return max(2, math.ceil(self.carry_resolution * min(float(self.extent), 1.0) - 1e-6))
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
