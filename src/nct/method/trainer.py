@@ -20,6 +20,7 @@ import numpy as np
 import torch
 from lightning.pytorch.callbacks import Callback, LearningRateMonitor
 from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
+from lightning.pytorch.utilities.warnings import PossibleUserWarning
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
@@ -229,8 +230,9 @@ def check_accelerator(accelerator: str) -> None:
 
 @contextmanager
 def quiet_lightning() -> Iterator[None]:
-    """Silence Lightning's per-Trainer banners (accelerator, tips, "max_steps reached") and the
-    warning about our sized iterable dataset, which has no workers to confuse."""
+    """Silence Lightning's per-Trainer banners (accelerator, tips, "max_steps reached"), the warning
+    about our sized iterable dataset, which has no workers to confuse, and its "possible mistakes"
+    (data workers, "GPU available but not used": the run's accelerator is ``trainer=``'s choice)."""
     lightning_log = logging.getLogger("lightning.pytorch")
     level = lightning_log.level
     lightning_log.setLevel(logging.WARNING)
@@ -238,6 +240,7 @@ def quiet_lightning() -> Iterator[None]:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*IterableDataset.*__len__.*")
             warnings.filterwarnings("ignore", message=".*LeafSpec.*")
+            warnings.filterwarnings("ignore", category=PossibleUserWarning)
             yield
     finally:
         lightning_log.setLevel(level)

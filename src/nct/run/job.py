@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import logging
 import platform
+import sys
 import time
 import traceback
 from collections.abc import Sequence
@@ -49,7 +50,9 @@ def environment() -> dict[str, str]:
         except metadata.PackageNotFoundError:  # e.g. nct run from a source tree that was never installed
             return "not installed"
 
-    return {"python": platform.python_version(), **{name: version(name) for name in PACKAGES}}
+    versions = {"python": platform.python_version(), **{name: version(name) for name in PACKAGES}}
+    torch = sys.modules.get("torch")  # once the run imported it: its build (+cpu, +cu130), which some metadata drop
+    return versions | ({"torch": torch.__version__} if torch is not None else {})
 
 
 def _settings(overrides: list[str] | None) -> list[str]:
@@ -71,14 +74,13 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
     started = time.perf_counter() if started is None else started
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = _settings(overrides)
-    versions = environment()
 
     def record(status: str, error: str | None = None, wall: float | None = None, warnings: Sequence[str] = (),
                **extra) -> None:
         _write_json(out_dir / "status.json", {
             "status": status, "error": error, "overrides": settings,
             "wall_time_s": time.perf_counter() - started if wall is None else wall,
-            "warnings": list(warnings), "environment": versions, **extra})
+            "warnings": list(warnings), "environment": environment(), **extra})
 
     previous = read_status(out_dir)
     try:
