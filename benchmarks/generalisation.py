@@ -21,9 +21,11 @@ Run: python benchmarks/generalisation.py [--quick] [--scenes N] [--seed S] [--si
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,7 +54,7 @@ from nct.run.tables import markdown_table, write_csv  # noqa: E402
 
 MARGIN = 0.01  # (b): NCT may trail FBP by at most this much Dice
 TARGET_DICE, TARGET_SHARE, MIN_RADIUS_PCT = 0.90, 0.90, 4.0  # (c)
-CATEGORY_KEYS = ("motion", "speed", "size", "noise", "layout", "units")
+CATEGORY_KEYS = ("motion", "family", "speed", "size", "noise", "layout", "units")
 QUICK_SCENES, QUICK_SIZE, QUICK_FRAMES = 8, 64, 8
 FULL_SCENES, FULL_SIZE, FULL_FRAMES = 100, 128, 12
 NCT_SEED = 0  # the method's seed, the same for every scene: scenes vary, the method does not
@@ -106,10 +108,18 @@ class Outcome:
             return {f"{m}_nested_dice": min(median(list(dice(rec[m] >= t, truth >= t))) for t in levels.values())
                     for m in ("nct", "fbp")}
 
+    @property
+    def winner(self) -> str:
+        """The candidate the run's tournament chose (metrics.json ``selection``; "" for a failed run)."""
+        path = self.nct.job.run_dir / "metrics.json"
+        if self.nct.failed or not path.is_file():
+            return ""
+        return json.loads(path.read_text()).get("selection", {}).get("winner", "")
+
     def row(self) -> dict:
         """The scene's parameters, categories and both methods' scores, flat."""
         return {**self.scene.parameters(), **self.scene.categories(), **self.nested_dice(),
-                "nct_status": self.nct.status, "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
+                "nct_status": self.nct.status, "winner": self.winner, "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
                 "fbp_status": self.fbp.status, "fbp_dice": self.fbp.dice, "fbp_mse": self.fbp.mse,
                 "nct_minus_fbp": self.nct_dice - self.fbp_dice, "below_fbp": self.below_fbp,
                 "wall_time_s": self.nct.wall_time_s, "run_time_s": self.nct.run_time_s,
@@ -153,7 +163,8 @@ def median(values: Sequence[float]) -> float:
 
 def category_rows(results: Sequence[Outcome]) -> list[dict]:
     """Per category value (and 'all'): scenes, median Dice of both methods (NeuralCT failures as 0),
-    median MSE (successful runs), crashes, scenes below FBP - margin, median wall time."""
+    median MSE (successful runs), crashes, scenes below FBP - margin, median wall time, and how often
+    each candidate won the run's tournament (``winner``)."""
     groups = [("all", "all", list(results))]
     for key in CATEGORY_KEYS:
         values = dict.fromkeys(o.scene.categories()[key] for o in results)
@@ -163,7 +174,8 @@ def category_rows(results: Sequence[Outcome]) -> list[dict]:
              "nct_mse": median([o.nct.mse for o in mine if not o.nct.failed]),
              "fbp_mse": median([o.fbp.mse for o in mine if not o.fbp.failed]),
              "nct_failed": sum(o.nct.failed for o in mine), "fbp_failed": sum(o.fbp.failed for o in mine),
-             "below_fbp": sum(o.below_fbp for o in mine), "wall_time_s": median([o.nct.wall_time_s for o in mine])}
+             "below_fbp": sum(o.below_fbp for o in mine), "wall_time_s": median([o.nct.wall_time_s for o in mine]),
+             "winners": " ".join(f"{name}:{n}" for name, n in Counter(o.winner or "none" for o in mine).most_common())}
             for key, value, mine in groups]
 
 
@@ -246,18 +258,18 @@ def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Accep
     """The markdown note: command, checks, the category table, then one row per scene."""
     per_category = markdown_table(
         ["category", "value", "scenes", "NCT Dice", "FBP Dice", "NCT MSE", "FBP MSE", "NCT failed", "FBP failed",
-         "NCT < FBP - 0.01", "wall s"],
+         "NCT < FBP - 0.01", "wall s", "chosen (scenes)"],
         [[c["category"], c["value"], c["scenes"], c["nct_dice"], c["fbp_dice"], c["nct_mse"], c["fbp_mse"],
-          c["nct_failed"], c["fbp_failed"], c["below_fbp"], c["wall_time_s"]] for c in categories])
+          c["nct_failed"], c["fbp_failed"], c["below_fbp"], c["wall_time_s"], c["winners"]] for c in categories])
     per_scene = markdown_table(
         ["scene", "units", "K", "layout", "motions", "deg/rot", "min radius %", "views/rot", "rot", "I0",
-         "FBP Dice", "NCT Dice", "FBP MSE", "NCT MSE", "NCT status", "wall s"],
+         "FBP Dice", "NCT Dice", "FBP MSE", "NCT MSE", "NCT status", "chosen", "wall s"],
         [[o.scene.name, o.scene.units, len(o.scene.objects), o.scene.layout,
           " ".join(m.motion.kind for m in o.scene.objects),
           o.scene.max_deg_per_rotation, o.scene.smallest_radius_pct(), o.scene.acquisition.views_per_rotation,
           o.scene.acquisition.rotations, f"{o.scene.noise_i0:.2g}" if o.scene.noise_i0 else "none", o.fbp_dice,
           o.nct_dice, o.fbp.mse, o.nct.mse,
-          o.nct.status if not o.nct.failed else f"{o.nct.status}: {first_line(o.nct.error)}",
+          o.nct.status if not o.nct.failed else f"{o.nct.status}: {first_line(o.nct.error)}", o.winner,
           o.nct.wall_time_s] for o in results])
     nested = [(o, o.nested_dice()) for o in results if o.scene.own_levels()]
     per_nested = markdown_table(

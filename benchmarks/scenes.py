@@ -154,9 +154,12 @@ class Scene:
         return 100 * min(float(Pose.of(self, i, _check_times(self)).b.min()) for i in range(len(self.objects)))
 
     def categories(self) -> dict[str, str]:
-        """Labels to group results by: motion, size (small: a semi-axis < ``SMALL_PCT`` % of the FOV at some time),
-        noise, layout, speed (fast: >= 150 deg/rot), units."""
+        """Labels to group results by: motion, family (the moving objects' kind of motion, "mixed" for
+        several), size (small: a semi-axis < ``SMALL_PCT`` % of the FOV at some time), noise, layout,
+        speed (fast: >= 150 deg/rot), units."""
+        kinds = sorted({o.motion.kind for o in self.objects} - {"static"})
         return {"motion": "moving" if self.moving else "static",
+                "family": kinds[0] if len(kinds) == 1 else "mixed" if kinds else "static",
                 "size": "small" if self.smallest_radius_pct() < SMALL_PCT else "normal",
                 "noise": "noisy" if self.noise_i0 is not None else "clean",
                 "layout": self.layout,

@@ -40,6 +40,7 @@ def test_sampler_covers_its_ranges_and_keeps_every_layout_valid():
     assert {len(s.objects) for s in scenes} == {1, 2, 3}
     assert {s.layout for s in scenes} == {"single", "apart", "nested"}
     assert {o.motion.kind for s in scenes for o in s.objects} == {"static", *S.MOTIONS}
+    assert {s.categories()["family"] for s in scenes} == {"static", "mixed", *S.MOTIONS}
     assert {s.acquisition.direction for s in scenes} == {-1, 1}
     assert {s.acquisition.rotations for s in scenes} == {1, 2, 3, 4}
     assert any(s.noise_i0 is None for s in scenes) and any(s.noise_i0 is not None for s in scenes)
@@ -119,6 +120,20 @@ def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
     assert [line.split(":")[1].split(",")[0].strip() for line in checks.lines()] == ["FAIL", "FAIL", "FAIL"]
     rows = {(r["category"], r["value"]): r for r in G.category_rows([ok, trailing, crashed])}
     assert rows["all", "all"]["nct_dice"] == pytest.approx(0.885) and rows["all", "all"]["nct_failed"] == 1
+
+
+def test_each_scene_and_family_reports_the_candidate_its_tournament_chose(tmp_path):
+    scenes = [s for s in S.draw_scenes(0, 12) if s.moving][:2]
+    runs = []
+    for i, winner in enumerate(("free_start1", "free")):
+        (tmp_path / str(i)).mkdir()
+        (tmp_path / str(i) / "metrics.json").write_text(json.dumps({"selection": {"winner": winner}}))
+        runs.append(Record(job=Job({"scene": "s"}, "nct", 0, (), tmp_path / str(i)), status="ok", dice=0.9, mse=0.01))
+    failed = G.Outcome(scenes[0], record("nct", "failed", math.nan), record("fbp", "ok", 0.9))
+    results = [G.Outcome(s, r, record("fbp", "ok", 0.9)) for s, r in zip(scenes, runs)] + [failed]
+    assert [o.row()["winner"] for o in results] == ["free_start1", "free", ""]
+    rows = {(r["category"], r["value"]): r for r in G.category_rows(results)}
+    assert rows["all", "all"]["winners"] == "free_start1:1 free:1 none:1"
 
 
 def test_acceptance_without_target_scenes_says_so_rather_than_fail():
