@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import torch
 
+import nct.method.reconstruct as reconstruct_module
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
@@ -183,6 +184,37 @@ def test_a_fit_that_loses_its_way_enters_a_restart_at_half_the_rates(acquisition
     assert fits["free_restart_fit"]["misfit_end"] < fits["free_restart_fit"]["misfit_start"]  # measured 0.074 from 0.094
     assert result.selection["winner"] == "free_restart"
     assert result.heldout_loss == pytest.approx(fits["free_restart_fit"]["misfit_end"], rel=1e-5)
+
+
+def test_a_candidate_whose_fit_diverges_drops_out_and_the_tournament_goes_on(acquisition, monkeypatch):
+    """Seen on a GPU: a band candidate diverged at step 100 after the free field had finished, and the
+    whole run failed. Now it drops out, its restart joins at half the rates, and the rest is unchanged."""
+    sino, times = acquisition
+    ladder = SelectionConf(rungs=["static", "free"])
+    honest = reconstruct_module.sinogram_fit
+
+    def static_diverges(prob, session, net, name, *args, **kwargs):
+        if name == "static":
+            raise DivergenceError("stage 'static_fit' diverged at step 3: loss nan")
+        return honest(prob, session, net, name, *args, **kwargs)
+
+    monkeypatch.setattr(reconstruct_module, "sinogram_fit", static_diverges)
+    result = run(sino, times, motion=ladder)
+    table = {r["candidate"]: r for r in result.selection["table"]}
+    assert table["static"]["verdict"].startswith("diverged: stage 'static_fit'") and table["static"]["steps"] == 0
+    assert "static_restart" in table and result.selection["winner"] == "free"
+    assert result.stages["static_fit"]["verdict"].startswith("diverged")
+    alone = run(sino, times)
+    assert result.stages["free_fit"]["misfit_end"] == alone.stages["free_fit"]["misfit_end"]
+
+
+def test_the_run_fails_with_the_divergence_when_no_candidate_finishes(acquisition, monkeypatch):
+    def diverges(prob, session, net, name, *args, **kwargs):
+        raise DivergenceError(f"stage '{name}_fit' diverged at step 3: loss nan")
+
+    monkeypatch.setattr(reconstruct_module, "sinogram_fit", diverges)
+    with pytest.raises(DivergenceError, match="stage 'free_fit' diverged"):
+        run(*acquisition)
 
 
 def test_the_ladder_chooses_static_for_a_still_scene_and_free_for_a_moving_one(acquisition):

@@ -82,6 +82,14 @@ def test_pruned_candidates_cannot_win():
     assert t.verdict().winner == STATIC
 
 
+def test_a_failed_fit_is_pruned_with_its_reason_and_cannot_win():
+    t = Tournament(1000, 100, CONF)
+    t.record(STATIC, [], 0, math.inf, failed="diverged: stage 'static_fit' diverged at step 100")
+    t.record(RIGID, history([2.0] * 10), 1000, 2.0)
+    v = t.verdict()
+    assert v.winner == RIGID and v.rows[0]["verdict"].startswith("diverged: stage 'static_fit'")
+
+
 def test_no_finished_candidate_is_an_error():
     with pytest.raises(ValueError, match="no candidate finished"):
         Tournament(10, 100, CONF).verdict()

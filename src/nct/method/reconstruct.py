@@ -18,6 +18,7 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.errors import DivergenceError
 from nct.method.conf import (
     BackgroundConf,
     HeldoutConf,
@@ -189,7 +190,8 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
     above where it started, or explains the check views no better than an empty image, has lost its way
     (an object fell out of the band, where no gradient reaches it): a restart joins the tournament at
     ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own
-    weights and InitFit) where that InitFit explained nothing either.
+    weights and InitFit) where that InitFit explained nothing either. A fit that diverges drops out (its
+    restart joins likewise); the run fails with its error only when no candidate finishes.
     ``seeds``: the run's seed and its generator, which the candidate ``PAPER`` continues (fitting.streams)."""
     seed, run_rng = seeds
     nets: dict[str, SpaceTimeField] = {}
@@ -212,6 +214,7 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
     empty = EMPTY * prob.empty_misfit()
     fitted: dict[str, Fitted] = {}
+    diverged: list[DivergenceError] = []
     queue = sorted(pool, key=lambda c: started[c.name][0])
     while queue:
         cand = queue.pop(0)
@@ -224,11 +227,21 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
         net = nets[cand.name]
         misfit0, state, rng = started[cand.name]
         net.load_state_dict(state)
-        with torch.random.fork_rng():
-            torch.manual_seed(seed if cand.name == PAPER else streams(seed, cand.name)[1])
-            done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
-                                at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
-                                tournament.stops(cand))
+        try:
+            with torch.random.fork_rng():
+                torch.manual_seed(seed if cand.name == PAPER else streams(seed, cand.name)[1])
+                done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
+                                    at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
+                                    tournament.stops(cand))
+        except DivergenceError as err:  # seen on a GPU: a band candidate at step 100, the free field finished
+            diverged.append(err)
+            session.stages[f"{cand.name}_fit"] = {"verdict": f"diverged: {err}"}
+            tournament.record(cand, [], 0, float("inf"), failed=f"diverged: {err}")
+            log.warning("%s; it drops out of the tournament%s", err, "" if restart else
+                        f", and a restart at {RESTART_RATE:g} of the rates joins it")
+            if not restart:
+                queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
+            continue
         entry = tournament.record(cand, done.history, done.steps, done.misfit)
         session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
         fitted[cand.name] = done
@@ -236,6 +249,8 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
             log.warning("stage %s_fit: its misfit went from %.3g to %.3g (an empty image's: %.3g); a restart at %g of "
                         "the rates joins the tournament", cand.name, misfit0, done.misfit, empty, RESTART_RATE)
             queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
+    if diverged and all(e.pruned for e in tournament.entries):
+        raise diverged[0]
     return tournament.verdict(), fitted, nets
 
 

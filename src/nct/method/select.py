@@ -138,9 +138,11 @@ class Tournament:
         """The rule for ``candidate``'s fit (a HeldoutStop callback's): stop where ``verdict_at`` says."""
         return lambda history: self.verdict_at(candidate, history) is not None
 
-    def record(self, candidate: Candidate, history: HeldoutHistory, steps: int, misfit: float) -> Entry:
-        """Enter a fitted candidate; one that stopped before ``steps`` is pruned (its misfit kept for the table)."""
-        pruned = self.verdict_at(candidate, history) if steps < self.steps else None
+    def record(self, candidate: Candidate, history: HeldoutHistory, steps: int, misfit: float,
+               failed: str | None = None) -> Entry:
+        """Enter a fitted candidate; one that stopped before ``steps`` is pruned (its misfit kept for the table),
+        one whose fit ``failed`` (why, e.g. it diverged) is pruned for that reason."""
+        pruned = failed or (self.verdict_at(candidate, history) if steps < self.steps else None)
         entry = Entry(candidate, steps, list(history), misfit, pruned)
         self.entries.append(entry)
         return entry
