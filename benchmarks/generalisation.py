@@ -28,6 +28,7 @@ import time
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import matplotlib
@@ -108,9 +109,9 @@ class Outcome:
             return {f"{m}_nested_dice": min(median(list(dice(rec[m] >= t, truth >= t))) for t in levels.values())
                     for m in ("nct", "fbp")}
 
-    @property
+    @cached_property
     def winner(self) -> str:
-        """The candidate the run's tournament chose (metrics.json ``selection``; "" for a failed run)."""
+        """The candidate the run's tournament chose (metrics.json ``selection``; "" for a failed run), read once."""
         path = self.nct.job.run_dir / "metrics.json"
         if self.nct.failed or not path.is_file():
             return ""

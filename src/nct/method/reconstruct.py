@@ -214,7 +214,7 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
     empty = EMPTY * prob.empty_misfit()
     fitted: dict[str, Fitted] = {}
-    diverged: list[DivergenceError] = []
+    diverged: DivergenceError | None = None  # the first: the run's error when no candidate finishes
     queue = sorted(pool, key=lambda c: started[c.name][0])
     while queue:
         cand = queue.pop(0)
@@ -234,23 +234,24 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
                                     at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
                                     tournament.stops(cand))
         except DivergenceError as err:  # seen on a GPU: a band candidate at step 100, the free field finished
-            diverged.append(err)
+            diverged = diverged or err
             session.stages[f"{cand.name}_fit"] = {"verdict": f"diverged: {err}"}
             tournament.record(cand, [], 0, float("inf"), failed=f"diverged: {err}")
-            log.warning("%s; it drops out of the tournament%s", err, "" if restart else
-                        f", and a restart at {RESTART_RATE:g} of the rates joins it")
-            if not restart:
-                queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
-            continue
-        entry = tournament.record(cand, done.history, done.steps, done.misfit)
-        session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
-        fitted[cand.name] = done
-        if entry.pruned is None and not restart and (done.misfit > misfit0 or done.misfit >= empty):
-            log.warning("stage %s_fit: its misfit went from %.3g to %.3g (an empty image's: %.3g); a restart at %g of "
-                        "the rates joins the tournament", cand.name, misfit0, done.misfit, empty, RESTART_RATE)
+            lost = f"{err}; it drops out of the tournament"
+            if restart:
+                log.warning("%s", lost)
+        else:
+            entry = tournament.record(cand, done.history, done.steps, done.misfit)
+            session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
+            fitted[cand.name] = done
+            lost = (f"stage {cand.name}_fit: its misfit went from {misfit0:.3g} to {done.misfit:.3g} (an empty "
+                    f"image's: {empty:.3g})" if entry.pruned is None and (done.misfit > misfit0 or done.misfit >= empty)
+                    else None)
+        if lost and not restart:
+            log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
             queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
-    if diverged and all(e.pruned for e in tournament.entries):
-        raise diverged[0]
+    if diverged is not None and all(e.pruned for e in tournament.entries):
+        raise diverged
     return tournament.verdict(), fitted, nets
 
 

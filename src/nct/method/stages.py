@@ -18,7 +18,7 @@ from torch import Tensor
 from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, OptimConf, RenderConf
-from nct.method.fields import SpaceTimeField, upsample
+from nct.method.fields import Coefficients, SpaceTimeField, upsample
 from nct.method.render import project_frames
 from nct.method.select import HeldoutHistory
 from nct.physics.data_term import misfit
@@ -94,15 +94,13 @@ class FieldStage(L.LightningModule):
         self.lattice = min(lattice or grid.size, grid.size)
         self.heldout_history: HeldoutHistory = []
 
-    def grid_sdf(self, times: Tensor) -> Tensor:
+    def grid_sdf(self, times: Tensor, c: Coefficients | None = None) -> Tensor:
         """SDF frames [T, K, H, W] at ``times`` [T] (rotations): the field evaluated on ``lattice``^2
-        points and upsampled bilinearly to the grid."""
-        return self.on_grid(self.field.sdf(self.field.on_lattice(self.lattice), times))
-
-    def on_grid(self, values: Tensor) -> Tensor:
-        """Values [T, K, P] on the ``lattice``^2 points as frames [T, K, H, W] on the grid."""
+        points (from ``c``, its coefficients there, when the caller holds them) and upsampled
+        bilinearly to the grid."""
         n = self.lattice
-        frames = values.reshape(values.shape[0], self.field.n_objects, n, n)
+        c = self.field.on_lattice(n) if c is None else c
+        frames = self.field.sdf(c, times).reshape(times.shape[0], self.field.n_objects, n, n)
         return upsample(frames, self.grid.size) if n < self.grid.size else frames
 
     def log_due(self, values: dict[str, Tensor]) -> None:
@@ -197,7 +195,7 @@ class SinogramFit(FieldStage):
         band = self.band()
         times = self.times[batch]
         c = self.field.on_lattice(self.lattice)
-        sdf = self.on_grid(self.field.sdf(c, times))
+        sdf = self.grid_sdf(times, c)
         rate = self.field.sdf_rate(c, times) / self.grid.extent  # dg/dt [T, K, P], FOV sides per rotation: tv_time's
         sinogram = misfit(self.render(sdf, batch, band), self.values[batch],
                           None if self.sigma is None else self.sigma[batch], self.scale)
