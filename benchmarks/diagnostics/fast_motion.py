@@ -33,7 +33,8 @@ import torch
 from scipy.ndimage import distance_transform_edt
 
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.method.fields import ModelConf, build_field, lattice_points
+from nct.method.fields import ModelConf, build_field
+from nct.method.lattice import lattice_points
 from nct.method.render import project_frames
 from nct.run.metrics import dice
 from nct.run.tables import markdown_table, write_csv

@@ -8,9 +8,10 @@ import numpy as np
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.method.compensate import compensated_frames, focused_path
+from nct.method.orientation import orientation_path
 from nct.method.trajectory import centroid_projections, fit_trajectory
 from nct.physics.projector import fbp_frames
-from nct.scenes.phantoms import ComposedConf, build_phantom
+from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
 from nct.scenes.simulate import simulate
 from tests.conftest import circle, orbit, still
 
@@ -55,3 +56,33 @@ def test_a_small_mover_over_a_static_body_is_put_on_its_path_by_focus():
     truth = both.ellipses(views.times)[:, 1, :2]
     assert np.hypot(*(path.at(views.times) - truth).T).max() < 0.3 / 64 and abs(scale / 13 - 1) < 0.05
     assert np.hypot(*(total.at(views.times) - truth).T).max() > 5 / 64
+
+
+def test_a_turning_bar_is_sharp_once_its_axis_is_undone_too():
+    """The bar experiment's ellipse (0.35 x 0.06) turning 100 deg/rotation while drifting right, analytic
+    views, 64 px: with its axis read off the views' second moments the compensated frames draw it with
+    Dice >= 0.97 at every time tried (0.991-0.998); with its translation alone undone they smear it, down to
+    0.6 or below (0.47-0.85)."""
+    scanner = Scanner(views_per_rotation=360, rotations=1.0, rotation_time=0.25, n_bins=64, bin_spacing=1 / 64)
+    grid = ImageGrid(64)
+    bar = EllipseConf(x=Signal(-0.05, rate=0.1), a=Signal(0.35), b=Signal(0.06), angle_deg=Signal(rate=100.0),
+                      intensity=Signal(1.0))
+    phantom = build_phantom(ComposedConf(objects=[bar]), scanner.rotation_time)
+    sino = simulate(phantom, scanner, grid, scanner.frame_times(1), None, np.random.default_rng(0))
+    times = sino.times[[30, 120, 200, 330]]
+    path = fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
+    axis = orientation_path(sino)
+    x, y = grid.xy()
+    truth = []
+    for cx, cy, a, b, phi, _ in phantom.ellipses(times)[:, 0]:
+        u, v = np.cos(phi) * (x - cx) + np.sin(phi) * (y - cy), np.cos(phi) * (y - cy) - np.sin(phi) * (x - cx)
+        truth.append((u / a) ** 2 + (v / b) ** 2 < 1)
+    truth = np.stack(truth)
+
+    def dice(frames: np.ndarray) -> np.ndarray:
+        masks = frames > 0.5 * frames.max(axis=(1, 2), keepdims=True)
+        return 2 * (masks & truth).sum(axis=(1, 2)) / (masks.sum(axis=(1, 2)) + truth.sum(axis=(1, 2)))
+
+    assert axis.held
+    assert dice(compensated_frames(sino, path, grid, times, 180.0, "ramp", axis)).min() >= 0.97
+    assert dice(compensated_frames(sino, path, grid, times, 180.0, "ramp")).min() < 0.6

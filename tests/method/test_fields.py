@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import torch
 
-from nct.method.fields import GridField, ModelConf, build_field, upsample
+from nct.method.fields import GridField, ModelConf, build_field
+from nct.method.lattice import upsample
 from nct.method.motion import Sightings
 
 XY = torch.rand(50, 2, generator=torch.Generator().manual_seed(0)) * 2 - 1
@@ -89,6 +90,21 @@ def test_a_held_object_is_carried_along_its_path(family):
     carried = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
     assert f.describe()["carried"] and "carry" in f.state_dict()
     torch.testing.assert_close(carried[4:-4, 4:-4], still[3:-5, 2:-6], atol=1e-5, rtol=1e-4)
+
+
+def test_a_turned_object_turns_with_its_axis():
+    """Held still at the centre with its axis at -90, 0 and +90 deg at t = 0, 0.5, 1: at t = 1 the
+    carried lattice is the uncarried one turned a quarter counter-clockwise (pixel centres onto pixel
+    centres), and the state dict holds the turn."""
+    f = lone()
+    t = torch.tensor([1.0])
+    still = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
+    seen = replace(sightings(held=True, px=0.0, reach=0.6), angles=torch.tensor([[-1.0], [0.0], [1.0]]) * math.pi / 2,
+                   turned=True)
+    f.start_motion(seen)
+    turned = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
+    assert f.describe()["turned"] and "turn" in f.state_dict()
+    torch.testing.assert_close(turned, torch.rot90(still, 1, (0, 1)), atol=1e-5, rtol=1e-4)
 
 
 @pytest.mark.parametrize("family", ["siren", "grid"])
@@ -191,7 +207,7 @@ def randomised(f):
 def test_lattice_evaluation_matches_points(family, device):
     """``on_lattice`` (separable matrix products for grids) gives the point-wise values at pixel centres."""
     from nct.acquisition.scanner import ImageGrid
-    from nct.method.fields import lattice_points
+    from nct.method.lattice import lattice_points
 
     x, y = ImageGrid(24, 3.0).xy()
     centres = torch.from_numpy(np.stack([x.ravel(), y.ravel()], axis=1) / 1.5).float()

@@ -13,7 +13,8 @@ from torch import nn
 
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, ModelConf
-from nct.method.fields import build_field, lattice_points, legendre
+from nct.method.fields import build_field, legendre
+from nct.method.lattice import lattice_points
 from nct.method.motion import (
     POSE_SCALE,
     SPAN,

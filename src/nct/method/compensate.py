@@ -3,8 +3,8 @@
 A lone object's mass centroid c(t) is read off the views' first moments (trajectory.py): each
 view v sees it at e(θ_v)·c(t_v) on the detector. Shifting every view by that amount gives the
 views of the object held at the origin, exactly for a translating rigid object; their FBP over a
-window is sharp however fast it moves (a rotation or a deformation still smears as before), and
-moved to c(t_f) it is the frame at t_f. Plain FBP frames of the circle at 200°/rotation smear
+window is sharp however fast it moves (a deformation still smears as before; a turn read off the
+views' second moments is undone too), and moved to c(t_f) it is the frame at t_f. Plain FBP frames of the circle at 200°/rotation smear
 the disc over 100° of its orbit: the InitFit start a fit then has to undo, and a moved template
 started from it settled on a gantry-locked ellipse that explains the views as well as the disc.
 
@@ -24,6 +24,7 @@ from scipy.optimize import minimize_scalar
 from nct.acquisition.rebin import to_parallel
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.method.orientation import Orientation
 from nct.method.trajectory import Trajectory
 from nct.physics.projector import fbp_frames
 
@@ -47,12 +48,46 @@ def centred_views(sino: Sinogram, path: Trajectory) -> Sinogram:
 
 
 def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times: np.ndarray,
-                       window_deg: float, filter: str) -> np.ndarray:
+                       window_deg: float, filter: str, axis: Orientation | None = None) -> np.ndarray:
     """FBP frames [F, H, W] at ``times`` [F] (``sino``'s clock) of the views centred on ``path``,
-    each moved back to where ``path`` puts the object at its time (bilinear)."""
-    frames = fbp_frames(centred_views(sino, path), grid, times, window_deg, filter)
-    centre = path.at(np.asarray(times, dtype=np.float64)) / grid.pixel_size  # [F, 2] pixels, x right, y up
-    return np.stack([shift(frame, (-cy, cx), order=1, mode="constant") for frame, (cx, cy) in zip(frames, centre)])
+    each moved back to where ``path`` puts the object at its time (bilinear). With the object's
+    ``axis`` (orientation.py) its turn is undone too: a parallel view at θ of the object turned by
+    φ(t) about its centroid is a view at θ − φ(t) of the object unturned (`turned_views`)."""
+    times = np.asarray(times, dtype=np.float64)
+    centre = path.at(times)  # [F, 2], x right, y up
+    centred = centred_views(sino, path)
+    turned = None if axis is None else turned_views(centred, axis)
+    if turned is None:
+        frames = fbp_frames(centred, grid, times, window_deg, filter)
+        return np.stack([shift(frame, (-cy / grid.pixel_size, cx / grid.pixel_size), order=1, mode="constant")
+                         for frame, (cx, cy) in zip(frames, centre)])
+    frames = fbp_frames(turned, grid, times, window_deg, filter)
+    turn = axis.at(times) - _reference(axis, centred)
+    x, y = grid.xy()
+    middle = (grid.size - 1) / 2
+    moved = []
+    for frame, (cx, cy), phi in zip(frames, centre, turn):
+        dx, dy = x - cx, y - cy
+        qx, qy = np.cos(phi) * dx + np.sin(phi) * dy, np.cos(phi) * dy - np.sin(phi) * dx  # R(-phi)(x - c)
+        where = [middle - qy / grid.pixel_size, middle + qx / grid.pixel_size]  # rows run down, y up
+        moved.append(map_coordinates(frame, where, order=1, mode="constant"))
+    return np.stack(moved)
+
+
+def turned_views(centred: Sinogram, axis: Orientation) -> Sinogram | None:
+    """Centred parallel views relabelled to the angles θ − (φ(t) − φ_mean) at which the object, held
+    at its mean axis, gives them; None where those angles do not advance one way (it turns as fast
+    as the gantry: then no window of them covers half a turn)."""
+    relabelled = np.asarray(centred.angles, dtype=np.float64) - (axis.at(centred.times) - _reference(axis, centred))
+    steps = np.diff(relabelled)
+    if not (np.all(steps > 0) or np.all(steps < 0)):
+        return None
+    return replace(centred, angles=relabelled)
+
+
+def _reference(axis: Orientation, sino: Sinogram) -> float:
+    """The axis the object is held at in `turned_views`: its mean over the views."""
+    return float(np.mean(axis.at(np.asarray(sino.times, dtype=np.float64))))
 
 
 def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> tuple[Trajectory, float]:

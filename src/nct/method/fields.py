@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import torch
@@ -21,6 +20,13 @@ from numpy.polynomial.legendre import legfit, legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
+from nct.method.lattice import (
+    interpolation_matrix,
+    interpolation_on_pixels,
+    lattice_interpolation,
+    lattice_points,
+    pixel_centres,
+)
 
 if TYPE_CHECKING:
     from nct.method.motion import Sightings
@@ -123,6 +129,9 @@ class Field(SpaceTimeField):
     (``Sightings.cover``; its border held beyond), ``model.carry_resolution`` pixels per field of view
     (``side``), and moved by a bilinear lookup, two interpolation matrices per time: deterministic
     products, and g one function of x whatever lattice asks for it. The static rung is not carried.
+    Where the object's axis is held too (``Sightings.turned``: an elongated rigid shape's, orientation.py),
+    h turns with it: g(x, t) = h(R(-phi(t)) (x - c(t)), t), phi the axis about its mean (a Legendre series
+    as d), looked up by bilinear sampling (a turn is not separable).
     """
 
     def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
@@ -138,6 +147,8 @@ class Field(SpaceTimeField):
         self.register_buffer("centre", torch.zeros(2))  # m
         self.register_buffer("extent", torch.tensor(1.0))  # h's lattice covers m +- this
         self.register_buffer("carried", torch.tensor(False))
+        self.register_buffer("turn", torch.zeros(self.n_carry))  # phi(t)'s series, rad
+        self.register_buffer("turned", torch.tensor(False))
 
     @property
     def side(self) -> int:
@@ -156,6 +167,10 @@ class Field(SpaceTimeField):
         self.carry.copy_(legendre_fit(on_scan(seen.times, self.span), centres - self.centre, self.n_carry).T)
         self.extent.copy_(seen.cover()[0])
         self.carried.fill_(True)
+        if seen.turned:
+            angles = seen.angles[:, :1].to(self.turn)  # [F, 1]
+            self.turn.copy_(legendre_fit(on_scan(seen.times, self.span), angles - angles.mean(), self.n_carry)[:, 0])
+            self.turned.fill_(True)
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -219,13 +234,27 @@ class Field(SpaceTimeField):
         beyond it); ``values`` unchanged where size is None (not carried)."""
         if size is None:
             return values
-        shift = legendre(on_scan(t, self.span), self.n_carry) @ self.carry.T + self.centre  # d(t) + m, [T, 2]
+        series = legendre(on_scan(t, self.span), self.n_carry)
+        shift = series @ self.carry.T + self.centre  # d(t) + m, [T, 2]
         u = pixel_centres(size).to(values)
         side = math.isqrt(values.shape[-1])
+        if bool(self.turned):
+            return self._turned_along(values.reshape(t.shape[0], 1, side, side), shift, series @ self.turn, u)
         rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, side)  # rows run down, y up
         cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, side)
         h = values.reshape(t.shape[0], side, side)
         return (rows @ h @ cols.transpose(-1, -2)).reshape(t.shape[0], 1, size * size)
+
+    def _turned_along(self, h: Tensor, shift: Tensor, phi: Tensor, u: Tensor) -> Tensor:
+        """h [T, 1, S, S] looked up at R(-phi) (x - shift) for x the pixel centres ``u`` [n] of an n x n
+        image, shift [T, 2], phi [T]: [T, 1, n^2] (bilinear, h's border held, as ``carry_along``)."""
+        dx = u[None, None, :] - shift[:, :1, None]  # [T, 1, n]: columns
+        dy = -u[None, :, None] - shift[:, 1:, None]  # [T, n, 1]: rows run down, y up
+        cos, sin = phi.cos()[:, None, None], phi.sin()[:, None, None]
+        qx, qy = (cos * dx + sin * dy) / self.extent, (cos * dy - sin * dx) / self.extent
+        where = torch.stack([qx, -qy], dim=-1)  # grid_sample's y runs down the rows
+        looked = F.grid_sample(h, where, mode="bilinear", padding_mode="border", align_corners=False)
+        return looked.reshape(h.shape[0], 1, -1)
 
     def describe(self) -> dict:
         """Capacity summary: family, sizes, parameter count, frequencies."""
@@ -235,6 +264,7 @@ class Field(SpaceTimeField):
             "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
             "carried": bool(self.carried),
+            "turned": bool(self.turned),
         }
 
 
@@ -288,66 +318,6 @@ class GridField(Field):
     def rendered(self, size: int, centre: Tensor | None = None, extent: Tensor | None = None) -> Coefficients:
         return self._split(self.static.on_lattice(size, centre, extent),
                            None if self.temporal is None else self.temporal.on_lattice(size, centre, extent))
-
-
-def pixel_centres(size: int) -> Tensor:
-    """Centres of ``size`` pixels spanning [-1, 1], increasing: [size] float32."""
-    return (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
-
-
-@lru_cache(maxsize=8)
-def lattice_points(size: int, device: torch.device | None = None) -> Tensor:
-    """Pixel centres of a size x size image spanning [-1, 1]: x right, y up, row-major [size**2, 2].
-    Cached per device (evaluated every step, no copy): do not modify the result."""
-    u = pixel_centres(size)
-    y, x = torch.meshgrid(-u, u, indexing="ij")
-    return torch.stack([x.ravel(), y.ravel()], dim=1).to(device)
-
-
-def interpolation_matrix(u: Tensor, cells: int) -> Tensor:
-    """Linear interpolation from ``cells`` nodes spanning [-1, 1] to coordinates u [n]: [n, cells]."""
-    return _linear_weights((u + 1) / 2 * (cells - 1), cells)
-
-
-def interpolation_on_pixels(u: Tensor, cells: int) -> Tensor:
-    """Linear interpolation from the pixel centres of a ``cells``-pixel axis spanning [-1, 1] to
-    coordinates u [..., n], constant beyond the outer centres: [..., n, cells]."""
-    return _linear_weights((u + 1) / 2 * cells - 0.5, cells)
-
-
-def _linear_weights(pos: Tensor, cells: int) -> Tensor:
-    """Linear interpolation from ``cells`` nodes at 0, 1, ... to positions ``pos`` [..., n] in node
-    units, constant beyond the ends: [..., n, cells]."""
-    if cells == 1:
-        return pos.new_ones(*pos.shape, 1)
-    pos = pos.clamp(0, cells - 1)
-    left = pos.floor().long().clamp(max=cells - 2)[..., None]
-    weight = pos[..., None] - left
-    return pos.new_zeros(*pos.shape, cells).scatter_(-1, left, 1 - weight).scatter_(-1, left + 1, weight)
-
-
-@lru_cache(maxsize=8)
-def upsampling_matrix(size: int, lattice: int, device: torch.device | None = None,
-                      dtype: torch.dtype = torch.float32) -> Tensor:
-    """Bilinear resampling, one axis, from the pixel centres of a ``lattice``-pixel image to those
-    of a ``size``-pixel image of the same extent: [size, lattice] (F.interpolate's
-    align_corners=False, as a matrix: its backward is a product too, far cheaper on a CPU).
-    Cached per device and dtype: do not modify."""
-    return interpolation_on_pixels(pixel_centres(size), lattice).to(device, dtype)
-
-
-def upsample(images: Tensor, size: int) -> Tensor:
-    """Bilinear upsampling of square images [..., n, n] to [..., size, size] (see upsampling_matrix)."""
-    m = upsampling_matrix(size, images.shape[-1], images.device, images.dtype)
-    return m @ images @ m.T
-
-
-@lru_cache(maxsize=32)
-def lattice_interpolation(size: int, cells: int, device: torch.device | None = None) -> tuple[Tensor, Tensor]:
-    """Bilinear lookup of a cells x cells grid at the pixel centres of a size x size image, as
-    matrices for image rows (y runs down) and columns: two [size, cells]. Cached per device: do not modify."""
-    u = pixel_centres(size)
-    return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
 
 
 def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, motion: str = "free",

@@ -72,8 +72,12 @@ def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
     and principal axis; a lone object's centre is its mass centroid read off the views' first
     moments (``prob.centres``; trajectory.py, exact in parallel beam, where each FBP frame's
     half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation; over a
-    background, that path scaled into focus: background.py), held by the fit."""
+    background, that path scaled into focus: background.py), held by the fit; an elongated rigid one's
+    angle is its axis read off their second moments (``prob.orientations``; orientation.py), turned with it."""
     seen = mask_sightings(masks, prob.init_times)
     if prob.centres is None or masks.shape[1] > 1:
         return seen
-    return replace(seen, centres=torch.from_numpy(prob.centres[:, None, :]).float(), held=True)
+    seen = replace(seen, centres=torch.from_numpy(prob.centres[:, None, :]).float(), held=True)
+    if prob.orientations is None:
+        return seen
+    return replace(seen, angles=torch.from_numpy(prob.orientations[:, None]).float(), turned=True)

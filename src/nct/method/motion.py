@@ -27,20 +27,19 @@ from nct.method.fields import (
     MultiGrid,
     Siren,
     SpaceTimeField,
-    lattice_points,
     legendre,
     legendre_fit,
     on_scan,
-    pixel_centres,
     series_terms,
 )
+from nct.method.lattice import lattice_points, pixel_centres
+from nct.method.orientation import ELONGATED
 
 SPAN = 2.0  # a template covers at most [-SPAN, SPAN]^2 about its centre: the whole image for any centre in it
 REACH_MARGIN = 1.5  # a template's half-width: this times its object's reach in the start's masks, plus
 REACH_PAD = 0.1  # this (image units, 6 px at 128): room for a boundary the FBP masks cut short or an affine growth
 POSE = {"rigid": ("x", "y", "angle"), "affine": ("x", "y", "angle", "log_scale_x", "log_scale_y", "shear")}
 POSE_SCALE = 10.0  # the poses' series are stored over this: Adam steps them 10x the template's (~0.6 px at lr 1e-3)
-ELONGATED = 0.2  # a start's masks whose second moments differ less than this (relative) give no angle
 
 
 @dataclass(frozen=True)
@@ -51,13 +50,15 @@ class Sightings:
     centre (image units: what its template must cover). ``held``: the centres are the mass centroid's
     path read off the views (initialise.sightings), which the fit keeps: the views' first moments
     tell all the data can of a rigid object's centre, and a fitted centre drifts along the rays
-    where no view sees it (the circle at 150 deg/rotation: 8 px)."""
+    where no view sees it (the circle at 150 deg/rotation: 8 px). ``turned``: the angles too are the
+    lone object's axis read off the views (orientation.py), which a carried free field turns with."""
 
     times: Tensor
     centres: Tensor
     angles: Tensor
     reach: Tensor
     held: bool = False
+    turned: bool = False
 
     def cover(self) -> Tensor:
         """The half-width [K] a shape held in its object's frame covers: its reach with room

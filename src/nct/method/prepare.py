@@ -19,6 +19,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.method.compensate import compensated_frames
 from nct.method.conf import HeldoutConf, InitConf, LossConf
 from nct.method.normalise import Units, field_of_view
+from nct.method.orientation import orientation_path
 from nct.method.stages import Views
 from nct.method.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
@@ -72,7 +73,9 @@ class Problem:
     ``views`` (all of them; fits sample ``fit_views``, ``held_views`` score them), the FBP frames
     ``fbp`` [F, H, W] of the fitted views at ``init_times`` [F] (rotations), the ``units`` and the
     ``clock``; for a lone object, its mass centroid's ``centres`` [F, 2] at ``init_times`` read off
-    the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise); the FBP frames' settings."""
+    the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise) and, where it is
+    elongated and rigid, its principal axis's ``orientations`` [F] (rad, counter-clockwise; None
+    otherwise: orientation.py); the FBP frames' settings."""
 
     grid: ImageGrid
     loss: LossConf
@@ -84,6 +87,7 @@ class Problem:
     units: Units
     clock: Clock
     centres: np.ndarray | None = None
+    orientations: np.ndarray | None = None
     fbp_window_deg: float = 180.0
     fbp_filter: str = "ramp"
 
@@ -121,7 +125,8 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak.
     With one object ``lone`` in the views (no background) whose mass stays steady (a rigid mover;
     trajectory.steady_mass), its centroid's path is read off their first moments (parallel beam:
-    trajectory.centroid_path) and the FBP frames undo its translation (compensate.py)."""
+    trajectory.centroid_path) and the FBP frames undo its translation (compensate.py); where it is
+    elongated and rigid, its axis is read off their second moments too (orientation.py)."""
     clock = rotations_since_start(sino)
     fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
     n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
@@ -129,11 +134,14 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     lengths = field_of_view(grid)
     grid = lengths.grid(grid)
     fitted = subset(lengths.sinogram(sino), fit_views)
-    centres = None
+    centres = orientations = None
     path = centroid_path(fitted) if lone and steady_mass(fitted) else None
     if path is not None:
-        fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter)
+        axis = orientation_path(fitted)
+        axis = axis if axis is not None and axis.held else None
+        fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter, axis)
         centres = path.at(init_times) * 2 / grid.extent
+        orientations = None if axis is None else axis.at(init_times)
     else:
         fbp = fbp_frames(fitted, grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
@@ -142,4 +150,4 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
     return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres,
-                   fbp_window_deg, fbp_filter)
+                   orientations, fbp_window_deg, fbp_filter)

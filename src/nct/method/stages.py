@@ -18,7 +18,8 @@ from torch import Tensor
 from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, OptimConf, RenderConf
-from nct.method.fields import Coefficients, SpaceTimeField, upsample
+from nct.method.fields import Coefficients, SpaceTimeField
+from nct.method.lattice import upsample
 from nct.method.render import project_frames
 from nct.method.select import HeldoutHistory
 from nct.physics.data_term import misfit

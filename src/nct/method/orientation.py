@@ -1,0 +1,124 @@
+"""Where a lone rigid mover points, read off the sinogram's second moments (the turn its carried field holds).
+
+In parallel beam the central second moment of each view, Σ (u − ū)²·p(u) / Σ p(u), is exactly
+e(θ)ᵀ Σ(t) e(θ): the mass's second-moment matrix Σ seen along the detector direction e(θ) at that
+view's instant. For a rigid shape of principal moments λ1 ≥ λ2 turned by φ(t) this is
+A + B cos 2(θ − φ(t)) with A = (λ1 + λ2) / 2 and B = (λ1 − λ2) / 2, whatever its translation: one
+number per view, and φ(t) smooth. The mirror answer 2θ(t) − φ(t) explains the views as well; it turns
+faster than the gantry, so the search keeps to slower turns. A disc (B = 0) has no axis to hold, and
+a shape that changes explains its views' moments by no A, B and φ: neither is held.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial.legendre import legval, legvander
+from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
+
+from nct.acquisition.geometry import ParallelGeometry
+from nct.acquisition.sinogram import Sinogram
+from nct.method.trajectory import MIN_MASS
+
+ELONGATED = 0.2  # an axis exists where (λ1 − λ2) / (λ1 + λ2) = B / A reaches this (the start masks' rule too)
+# The rigid model must explain the views' second moments to this share of B (RMS): the bar and the
+# subset's turning ellipses within 0.01, a beating or changing shape not (tests/method/test_orientation.py).
+STEADY_SHAPE = 0.05
+TERMS_PER_ROTATION = 2  # φ's Legendre terms per rotation of the scan: a steady turn within each rotation
+SEARCH_STEP = math.radians(1.0)  # the grid of steady turns searched first, radians per rotation
+
+
+def second_moments(sino: Sinogram) -> np.ndarray:
+    """Central second moment of each view, Σ_i (u_i − ū)²·p_i / Σ_i p_i over the bins at detector
+    coordinates u_i: [V] float64 (length units²); NaN where the view holds less than MIN_MASS of the
+    median view's mass (trajectory.centroid_projections). Parallel beam only (fan: ValueError)."""
+    if not isinstance(sino.geometry, ParallelGeometry):
+        raise ValueError("second moments are read in parallel beam only")
+    values = np.asarray(sino.values, dtype=np.float64)
+    u = np.asarray(sino.geometry.bin_positions, dtype=np.float64)
+    mass = values.sum(axis=1)
+    floor = MIN_MASS * max(float(np.median(mass)), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = values @ u / mass
+        return np.where(mass > floor, values @ (u * u) / mass - mean * mean, np.nan)
+
+
+@dataclass(frozen=True)
+class Orientation:
+    """A principal axis φ(t) from `orientation_path`: Legendre ``coefficients`` [n] of φ (rad,
+    counter-clockwise from x) over the scan of ``span`` rotations from ``start_time`` (s), one rotation
+    every ``rotation_time`` s; the views' moments' ``isotropic`` A and ``anisotropy`` B (length
+    units²) and the model's RMS ``residual`` there."""
+
+    start_time: float
+    rotation_time: float
+    span: float
+    coefficients: np.ndarray
+    isotropic: float
+    anisotropy: float
+    residual: float
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        """φ at ``times`` [T] s: [T] rad."""
+        tau = (np.asarray(times, dtype=np.float64) - self.start_time) / self.rotation_time
+        return legval(2 * tau / self.span - 1, self.coefficients)
+
+    @property
+    def held(self) -> bool:
+        """Whether the axis is one to hold: the shape elongated (ELONGATED) and rigid (STEADY_SHAPE)."""
+        return self.anisotropy >= ELONGATED * self.isotropic and self.residual <= STEADY_SHAPE * self.anisotropy
+
+
+def orientation_path(sino: Sinogram) -> Orientation | None:
+    """The principal axis that best explains ``sino``'s second moments as a rigid shape's (module
+    docstring), or None in fan beam (a rebinned view mixes instants) and with fewer than 3 usable
+    views. Steady turns of less than one rotation per gantry rotation are searched on a grid (each
+    a linear least-squares fit of A, B cos 2φ0, B sin 2φ0), then φ's Legendre series
+    (TERMS_PER_ROTATION) is refined by nonlinear least squares."""
+    if not isinstance(sino.geometry, ParallelGeometry):
+        return None
+    moments = second_moments(sino)
+    angles, times = (np.asarray(a, dtype=np.float64) for a in (sino.angles, sino.times))
+    ok = np.isfinite(moments)
+    if ok.sum() < 3 or times[-1] <= times[0] or angles[-1] == angles[0]:
+        return None
+    span = abs(angles[-1] - angles[0]) / (2 * math.pi)
+    rotation_time = (times[-1] - times[0]) / span
+    theta, tau, m = angles[ok], (times[ok] - times[0]) / rotation_time, moments[ok]
+    with threadpool_limits(1):
+        return _fit(theta, tau, m, float(times[0]), rotation_time, span)
+
+
+def _fit(theta: np.ndarray, tau: np.ndarray, m: np.ndarray, start: float, rotation_time: float,
+         span: float) -> Orientation:
+    """`orientation_path`'s work on the usable views: angles [V] rad, rotations since the first view [V], moments [V]."""
+    turns = np.arange(-2 * math.pi + SEARCH_STEP, 2 * math.pi, SEARCH_STEP)  # the mirror turns faster than 2π
+    best = (math.inf, 0.0, np.zeros(3))
+    for omega in turns:
+        phase = 2 * (theta - omega * tau)
+        design = np.stack([np.ones_like(phase), np.cos(phase), np.sin(phase)], axis=1)
+        coef, *_ = np.linalg.lstsq(design, m, rcond=None)
+        misfit = float(np.sum((design @ coef - m) ** 2))
+        if misfit < best[0]:
+            best = (misfit, omega, coef)
+    _, omega, (a, c, s) = best
+    n = max(2, math.ceil(TERMS_PER_ROTATION * span - 1e-9))
+    s_scan = 2 * tau / span - 1
+    basis = legvander(s_scan, n - 1)
+    phi0 = 0.5 * math.atan2(s, c)
+    start_coef = np.zeros(n)
+    start_coef[0], start_coef[1] = phi0 + omega * span / 2, omega * span / 2  # φ0 + ωτ in Legendre terms
+
+    def residuals(q: np.ndarray) -> np.ndarray:
+        return q[0] + q[1] * np.cos(2 * (theta - basis @ q[2:])) - m
+
+    found = least_squares(residuals, np.concatenate([[a, math.hypot(c, s)], start_coef]), method="lm")
+    q = found.x
+    isotropic, anisotropy, coefficients = float(q[0]), float(q[1]), q[2:]
+    if anisotropy < 0:  # the same axes turned a quarter turn
+        anisotropy, coefficients = -anisotropy, coefficients + np.eye(n)[0] * math.pi / 2
+    residual = float(np.sqrt(np.mean(residuals(q) ** 2)))
+    return Orientation(start, rotation_time, span, coefficients, isotropic, anisotropy, residual)
