@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from nct.acquisition.sinogram import Sinogram
-from nct.method.orientation import ELONGATED, orientation_path, second_moments
+from nct.method.orientation import ELONGATED, frame_coverage, orientation_path, second_moments
 from tests.conftest import GEOMETRIES, closed_form_sinogram
 
 VIEWS = 240
@@ -48,6 +48,13 @@ def test_a_turning_bar_is_read_to_a_fraction_of_a_degree(rate):
     off = (found.at(sino.times) - axis + math.pi / 2) % math.pi - math.pi / 2
     assert np.degrees(np.abs(off)).max() < 0.5
     assert found.held and found.anisotropy / found.isotropic == pytest.approx(0.8, abs=0.01)  # (9 - 1) / (9 + 1)
+
+
+@pytest.mark.parametrize("rate, coverage", [(100.0, 260.0), (-100.0, 460.0), (300.0, 60.0)])
+def test_the_frame_is_seen_over_the_gantry_turn_less_the_objects(rate, coverage):
+    """Over one rotation of the gantry the object's own frame is seen over 360 deg minus its own turn (within 2 deg)."""
+    sino, _ = turning(GEOMETRIES["parallel"], rate)
+    assert frame_coverage(sino, orientation_path(sino)) == pytest.approx(coverage * (VIEWS - 1) / VIEWS, abs=2.0)
 
 
 def test_over_several_rotations():

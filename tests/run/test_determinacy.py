@@ -7,7 +7,7 @@ import pytest
 
 from nct.analysis.benchmarking import QUIET
 from nct.run.config import validate
-from nct.run.determinacy import determinacy_warnings, motion_determinacy
+from nct.run.determinacy import determinacy_warnings, motion_determinacy, turn_warnings
 from nct.run.job import run_job
 from nct.run.pipeline import acquire
 
@@ -44,3 +44,16 @@ def test_run_records_the_verdict(tiny_cfg, run_dir):
     assert motion["determined"] is False and motion["ray_spread_px"] > motion["threshold_px"]
     warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
     assert any(w.startswith("motion along the rays is not determined") for w in warnings)
+
+
+@pytest.mark.parametrize("rate, coverage, warned", [(100.0, 260.0, False), (300.0, 60.0, True)])
+def test_a_bar_turning_with_the_gantry_is_warned(tiny_cfg, run_dir, rate, coverage, warned):
+    """The bar turning 300 deg/rotation over one rotation is seen in its own frame over 60 deg of view
+    angle alone (metrics.json's init; the 60 views span 59/60 of the rotation): warned; at 100
+    deg/rotation over 260 deg: not."""
+    run_job(tiny_cfg("experiment=bar", f"phantom.objects.0.angle_deg.rate={rate}", *QUIET), run_dir)
+    init = json.loads((run_dir / "metrics.json").read_text())["init"]
+    assert init["frame_coverage_deg"] == pytest.approx(coverage * 59 / 60, abs=1.0)
+    warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
+    assert any("turns with the gantry" in w for w in warnings) is warned
+    assert turn_warnings({"frame_coverage_deg": None}) == [] == turn_warnings({})

@@ -15,6 +15,7 @@ the views minus the background's start into focus (`focused_path`).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -61,7 +62,9 @@ def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times:
         frames = fbp_frames(centred, grid, times, window_deg, filter)
         return np.stack([shift(frame, (-cy / grid.pixel_size, cx / grid.pixel_size), order=1, mode="constant")
                          for frame, (cx, cy) in zip(frames, centre)])
-    frames = fbp_frames(turned, grid, times, window_deg, filter)
+    with warnings.catch_warnings():  # a frame seen over less than the window: the run's turn_warnings say so
+        warnings.filterwarnings("ignore", message="the acquisition covers")
+        frames = fbp_frames(turned, grid, times, window_deg, filter)
     turn = axis.at(times) - _reference(axis, centred)
     x, y = grid.xy()
     middle = (grid.size - 1) / 2

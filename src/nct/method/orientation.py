@@ -72,6 +72,14 @@ class Orientation:
         return self.anisotropy >= ELONGATED * self.isotropic and self.residual <= STEADY_SHAPE * self.anisotropy
 
 
+def frame_coverage(sino: Sinogram, axis: Orientation) -> float:
+    """Degrees of view angle over which the object's own frame is seen: the span of θ − φ(t) over
+    ``sino``'s views. Parallel views over 180° determine a still shape; a turning one seen over less
+    is left partly to the prior (the bar turning 300°/rotation over one rotation: 60°)."""
+    relative = np.unwrap(np.asarray(sino.angles, dtype=np.float64) - axis.at(np.asarray(sino.times, dtype=np.float64)))
+    return float(np.degrees(np.ptp(relative)))
+
+
 def orientation_path(sino: Sinogram) -> Orientation | None:
     """The principal axis that best explains ``sino``'s second moments as a rigid shape's (module
     docstring), or None in fan beam (a rebinned view mixes instants) and with fewer than 3 usable

@@ -19,7 +19,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.method.compensate import compensated_frames
 from nct.method.conf import HeldoutConf, InitConf, LossConf
 from nct.method.normalise import Units, field_of_view
-from nct.method.orientation import orientation_path
+from nct.method.orientation import frame_coverage, orientation_path
 from nct.method.stages import Views
 from nct.method.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
@@ -75,7 +75,8 @@ class Problem:
     ``clock``; for a lone object, its mass centroid's ``centres`` [F, 2] at ``init_times`` read off
     the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise) and, where it is
     elongated and rigid, its principal axis's ``orientations`` [F] (rad, counter-clockwise; None
-    otherwise: orientation.py); the FBP frames' settings."""
+    otherwise: orientation.py) and the degrees of view angle its own frame is seen over
+    (``frame_coverage_deg``); the FBP frames' settings."""
 
     grid: ImageGrid
     loss: LossConf
@@ -88,6 +89,7 @@ class Problem:
     clock: Clock
     centres: np.ndarray | None = None
     orientations: np.ndarray | None = None
+    frame_coverage_deg: float | None = None
     fbp_window_deg: float = 180.0
     fbp_filter: str = "ramp"
 
@@ -134,14 +136,15 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     lengths = field_of_view(grid)
     grid = lengths.grid(grid)
     fitted = subset(lengths.sinogram(sino), fit_views)
-    centres = orientations = None
+    centres = orientations = coverage = None
     path = centroid_path(fitted) if lone and steady_mass(fitted) else None
     if path is not None:
         axis = orientation_path(fitted)
         axis = axis if axis is not None and axis.held else None
         fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter, axis)
         centres = path.at(init_times) * 2 / grid.extent
-        orientations = None if axis is None else axis.at(init_times)
+        if axis is not None:
+            orientations, coverage = axis.at(init_times), frame_coverage(fitted, axis)
     else:
         fbp = fbp_frames(fitted, grid, init_times, fbp_window_deg, fbp_filter)
     units = lengths.with_intensity_of(fbp)
@@ -150,4 +153,4 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
     return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres,
-                   orientations, fbp_window_deg, fbp_filter)
+                   orientations, coverage, fbp_window_deg, fbp_filter)

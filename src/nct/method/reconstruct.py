@@ -65,7 +65,8 @@ class NCTResult:
     held-out views (NaN if none) and heldout_se its standard error; stages: per stage {steps,
     losses, wall_time_s, ...}; model: the winner's field (motion rung, family, parameters);
     selection: the tournament's verdict (winner, reason, one row per candidate: selection.csv);
-    init: the starts (segment.py's route, levels) and the units, in the data's; trace: snapshots;
+    init: the starts (segment.py's route, levels), the units, in the data's, and the degrees of view angle a
+    held axis leaves its object's own frame seen over (prepare.py; None: none held); trace: snapshots;
     background: the static image [H, W] float32 under the objects (``background=image``; None: none).
     """
 
@@ -174,7 +175,7 @@ def reconstruct(
                    "reason": verdict.reason, "table": verdict.rows,
                    "tolerance": motion.tolerance, "first_budget": motion.first_budget},
         init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels, "start": winner.start,
-              "starts_tried": len(starts), "levels_misfit": seg.misfit, "background": seg.background * units.intensity,
+              "starts_tried": len(starts), "levels_misfit": seg.misfit, "frame_coverage_deg": prob.frame_coverage_deg, "background": seg.background * units.intensity,
               "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
               "intensity_unit": units.intensity},
         trace=trace,

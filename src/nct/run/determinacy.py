@@ -5,6 +5,8 @@ measures the spread, along the ray of the view taken at each instant, between eq
 motion along that ray changes no view, so only a prior over time fills it in. With several objects
 the first moment is the whole mass's centroid: the verdict is on where the total mass goes, and an
 object moving against another (their centroid still) can go unflagged; a still scene reads 0 px.
+A lone object turned with its held axis (method/orientation.py) is seen in its own frame over the span
+of θ − φ(t) alone: below half a turn, what those views leave open of its shape is the prior's.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.method.trajectory import centroid_projections, determinacy, fit_trajectory
 
 log = logging.getLogger(__name__)
+HALF_TURN_DEG = 180.0  # parallel views over half a turn determine a still shape
 
 
 @dataclass(frozen=True)
@@ -55,3 +58,14 @@ def determinacy_warnings(m: MotionDeterminacy | None) -> list[str]:
         return []
     return [f"motion along the rays is not determined by these data (spread {m.ray_spread_px:.2g} px between "
             f"equally good trajectories, above {m.threshold_px:g} px): more rotations or a motion prior needed"]
+
+
+def turn_warnings(init: dict) -> list[str]:
+    """status.json's warning line when a held axis leaves its object's own frame seen over less than
+    HALF_TURN_DEG of view angle (``init["frame_coverage_deg"]``, reconstruct's), else none."""
+    coverage = init.get("frame_coverage_deg")
+    if coverage is None or coverage >= HALF_TURN_DEG:
+        return []
+    return [f"the moving object turns with the gantry: its own frame is seen over {coverage:.0f} deg of view angle, "
+            f"less than the {HALF_TURN_DEG:.0f} deg that determine a shape; the rest of its shape is the prior's "
+            "guess: more rotations or a slower turn needed"]

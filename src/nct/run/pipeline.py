@@ -21,7 +21,7 @@ from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory
 from nct.run.consistency import check_geometry, geometry_warnings
-from nct.run.determinacy import determinacy_warnings, motion_determinacy
+from nct.run.determinacy import determinacy_warnings, motion_determinacy, turn_warnings
 from nct.run.job import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
@@ -110,7 +110,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`determinacy_warnings`, `geometry_warnings`, `suspect_fit`)."""
+    run's warnings (`determinacy_warnings`, `turn_warnings`, `geometry_warnings`, `suspect_fit`)."""
     import torch
 
     if conf.threads is not None:
@@ -125,8 +125,8 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
     frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
-    warnings = (determinacy_warnings(motion) + geometry_warnings(geometry, acq.sino, conf.suspect)
-                + suspect_fit(conf, acq, extra))
+    warnings = (determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
+                + geometry_warnings(geometry, acq.sino, conf.suspect) + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
                     "motion_determinacy": asdict(motion) if motion is not None else None,
                     "geometry_check": asdict(geometry) if geometry is not None else None}
