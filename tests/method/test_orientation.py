@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 
 from nct.acquisition.sinogram import Sinogram
-from nct.method.orientation import ELONGATED, frame_coverage, orientation_path, second_moments
+from nct.method.orientation import (
+    ELONGATED,
+    frame_coverage,
+    orientation_path,
+    second_moments,
+)
 from tests.conftest import GEOMETRIES, closed_form_sinogram
 
 VIEWS = 240

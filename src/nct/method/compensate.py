@@ -4,9 +4,10 @@ A lone object's mass centroid c(t) is read off the views' first moments (traject
 view v sees it at e(θ_v)·c(t_v) on the detector. Shifting every view by that amount gives the
 views of the object held at the origin, exactly for a translating rigid object; their FBP over a
 window is sharp however fast it moves (a deformation still smears as before; a turn read off the
-views' second moments is undone too), and moved to c(t_f) it is the frame at t_f. Plain FBP frames of the circle at 200°/rotation smear
-the disc over 100° of its orbit: the InitFit start a fit then has to undo, and a moved template
-started from it settled on a gantry-locked ellipse that explains the views as well as the disc.
+views' second moments is undone too), and moved to c(t_f) it is the frame at t_f. Plain FBP frames
+of the circle at 200°/rotation smear the disc over 100° of its orbit: the InitFit start a fit then
+has to undo, and a moved template started from it settled on a gantry-locked ellipse that explains
+the views as well as the disc.
 
 Over a static background the whole mass's centroid moves by the mover's share of the mass times
 the mover's own motion: the mover's path is c(t) scaled about its mean, by the factor that brings
