@@ -1,0 +1,79 @@
+"""Can one turning part's axis be read off the views' second moments among still ones (issue 27)?
+
+A diagnosis, not a reconstruction; it reads the truth to score the answer. For a generalisation
+scene whose moving part turns about a still centre beside still objects (scene067: an ellipse
+turning 172°/rotation beside two still ones), the whole mass's centroid stays put, so each view's
+central second moment is a still quadratic form plus the turning part's: A + B0 cos 2θ + C0 sin 2θ
++ B cos 2(θ − φ(t)). A grid of steady turns φ = φ0 + ωt (each a linear least-squares fit of the
+five) finds ω; the lone-object model (method/orientation.py, three terms) is fitted too. Prints
+both turns and their misfits against the true one.
+
+    python benchmarks/diagnostics/turning_part.py [--scene scene067] [--size 128]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the independent scenes
+from scene_files import detector, line_integrals  # noqa: E402
+from scenes import Pose, draw_scene  # noqa: E402
+
+from nct.acquisition.geometry import ParallelGeometry  # noqa: E402
+from nct.acquisition.sinogram import Sinogram  # noqa: E402
+from nct.method.orientation import orientation_path, second_moments  # noqa: E402
+
+
+def steady_turn(theta: np.ndarray, tau: np.ndarray, moments: np.ndarray, still: bool) -> tuple[float, float, float]:
+    """The steady turn (rad per rotation), its phase φ0 and the RMS misfit of the best grid fit, with
+    (``still``) or without the still quadratic form's two terms."""
+    best = (math.inf, 0.0, 0.0)
+    for omega in np.arange(-2 * math.pi, 2 * math.pi, math.radians(0.5))[1:]:
+        phase = 2 * (theta - omega * tau)
+        columns = [np.ones_like(theta), np.cos(phase), np.sin(phase)]
+        if still:
+            columns += [np.cos(2 * theta), np.sin(2 * theta)]
+        design = np.stack(columns, axis=1)
+        coef, *_ = np.linalg.lstsq(design, moments, rcond=None)
+        misfit = float(np.sqrt(np.mean((design @ coef - moments) ** 2)))
+        if misfit < best[0]:
+            best = (misfit, omega, 0.5 * math.atan2(coef[2], coef[1]))
+    return best[1], best[2], best[0]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="scene067", help="a scene of the generalisation benchmark (seed 0)")
+    parser.add_argument("--size", type=int, default=128, help="detector bins per field of view")
+    args = parser.parse_args(argv)
+    scene = draw_scene(0, int(args.scene.removeprefix("scene")))
+    acq = scene.acquisition
+    n_bins, spacing = detector(scene, args.size)
+    sino = Sinogram(line_integrals(scene, args.size).astype(np.float32), acq.angles(), acq.times(),
+                    ParallelGeometry(n_bins, spacing))
+    moments = second_moments(sino)
+    theta = np.asarray(sino.angles, dtype=np.float64)
+    tau = (acq.times() - acq.times()[0]) / acq.rotation_time
+    for i, obj in enumerate(scene.objects):
+        pose = Pose.of(scene, i, acq.times())
+        turn = np.degrees(pose.angle[-1] - pose.angle[0]) / acq.rotations
+        print(f"object {i}: {obj.motion.kind}, true turn {turn:+.1f} deg/rotation")
+    for still in (False, True):
+        omega, phi0, misfit = steady_turn(theta, tau, moments, still)
+        print(f"{'five terms (a still rest)' if still else 'three terms (a lone shape)'}: turn "
+              f"{math.degrees(omega):+.1f} deg/rotation, axis at the first view {math.degrees(phi0) % 180:.1f} deg, "
+              f"RMS misfit {misfit:.3g} (moments' spread {moments.std():.3g})")
+    lone = orientation_path(sino)
+    print(f"orientation_path (a lone shape): held {lone.held}, B/A {lone.anisotropy / lone.isotropic:.3f}, "
+          f"misfit / B {lone.residual / max(lone.anisotropy, 1e-30):.3g}")
+    moving = next(i for i, o in enumerate(scene.objects) if o.motion.kind == "rotation")
+    print(f"true axis of object {moving} at the first view: {math.degrees(Pose.of(scene, moving, acq.times()).angle[0]) % 180:.1f} deg")
+
+
+if __name__ == "__main__":
+    main()
