@@ -12,7 +12,7 @@ import torch
 from omegaconf import OmegaConf
 
 from nct.cli.export import main
-from nct.method.reload import load_run
+from nct.method.reload import load_run, render
 from nct.run.job import run_job
 from tests.conftest import TINY, compose_config
 
@@ -160,6 +160,17 @@ def test_a_checkpoint_of_an_older_nct_is_refused(run, tmp_path, capsys):
     saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k != "field.omega"}
     torch.save(saved, path)
     assert "written by an older nct (its checkpoint has no omega)" in refused(capsys, copy, "--frames", 4)
+
+
+def test_a_checkpoint_from_before_the_turn_renders_unturned(run, tmp_path):
+    """A field saved before a carried field could turn (no ``turn`` buffers) loads and renders as it did."""
+    copy = shutil.copytree(run, tmp_path / "run")
+    path = load_run(copy).checkpoint
+    saved = torch.load(path, weights_only=True)
+    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k not in ("field.turn", "field.turned")}
+    torch.save(saved, path)
+    times = np.array([0.05, 0.2])
+    np.testing.assert_array_equal(render(load_run(copy), times, 24)[0], render(load_run(run), times, 24)[0])
 
 
 def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):

@@ -29,6 +29,8 @@ from nct.method.reconstruct import field_frames
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
+UNTURNED = ("turn", "turned")  # a field saved before a carried field could turn (session 40) renders unturned
+
 
 @dataclass(frozen=True)
 class FittedRun:
@@ -111,6 +113,7 @@ def load_run(run_dir: Path) -> FittedRun:
     weights = {k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")}
     if "background" in weights:
         net.set_background(weights["background"])
+    weights = {**{k: v for k, v in net.state_dict().items() if k in UNTURNED}, **weights}
     missing = sorted(set(net.state_dict()) - set(weights))
     if missing:
         raise InputError(f"{run_dir} was written by an older nct (its checkpoint has no {', '.join(missing)}): "
