@@ -8,7 +8,7 @@ central second moment is a still quadratic form plus the turning part's: A + B0 
 five) finds ω; the lone-object model (method/orientation.py, three terms) is fitted too. Prints
 both turns and their misfits against the true one.
 
-    python benchmarks/diagnostics/turning_part.py [--scene scene067] [--size 128]
+    python benchmarks/diagnostics/turning_part.py [--scenes scene067 ...] [--size 128]
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the independent scenes
-from scene_files import detector, line_integrals  # noqa: E402
+from scene_files import add_noise, detector, line_integrals  # noqa: E402
 from scenes import Pose, draw_scene  # noqa: E402
 
 from nct.acquisition.geometry import ParallelGeometry  # noqa: E402
@@ -48,32 +48,39 @@ def steady_turn(theta: np.ndarray, tau: np.ndarray, moments: np.ndarray, still: 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", default="scene067", help="a scene of the generalisation benchmark (seed 0)")
+    parser.add_argument("--scenes", nargs="+", default=["scene067"], help="scenes of the generalisation benchmark (seed 0)")
     parser.add_argument("--size", type=int, default=128, help="detector bins per field of view")
     args = parser.parse_args(argv)
-    scene = draw_scene(0, int(args.scene.removeprefix("scene")))
+    for name in args.scenes:
+        print(name)
+        report(draw_scene(0, int(name.removeprefix("scene"))), args.size)
+
+
+def report(scene, size: int) -> None:
+    """Print the true turns, the three- and five-term fits and orientation_path's verdict for ``scene``."""
     acq = scene.acquisition
-    n_bins, spacing = detector(scene, args.size)
-    sino = Sinogram(line_integrals(scene, args.size).astype(np.float32), acq.angles(), acq.times(),
-                    ParallelGeometry(n_bins, spacing))
+    n_bins, spacing = detector(scene, size)
+    values = line_integrals(scene, size)
+    if scene.noise_i0 is not None:  # the benchmark's own noise (scene_files.add_noise), in unit-FOV lengths
+        values = add_noise(values * scene.extent, scene.noise_i0, scene.extent,
+                           np.random.default_rng([0, scene.index, 1])) / scene.extent
+    sino = Sinogram(values.astype(np.float32), acq.angles(), acq.times(), ParallelGeometry(n_bins, spacing))
     moments = second_moments(sino)
     theta = np.asarray(sino.angles, dtype=np.float64)
     tau = (acq.times() - acq.times()[0]) / acq.rotation_time
     for i, obj in enumerate(scene.objects):
         pose = Pose.of(scene, i, acq.times())
         turn = np.degrees(pose.angle[-1] - pose.angle[0]) / acq.rotations
-        print(f"object {i}: {obj.motion.kind}, true turn {turn:+.1f} deg/rotation")
+        print(f"  object {i}: {obj.motion.kind}, true turn {turn:+.1f} deg/rotation, axis at the first view "
+              f"{math.degrees(pose.angle[0]) % 180:.1f} deg")
     for still in (False, True):
         omega, phi0, misfit = steady_turn(theta, tau, moments, still)
-        print(f"{'five terms (a still rest)' if still else 'three terms (a lone shape)'}: turn "
+        print(f"  {'five terms (a still rest)' if still else 'three terms (a lone shape)'}: turn "
               f"{math.degrees(omega):+.1f} deg/rotation, axis at the first view {math.degrees(phi0) % 180:.1f} deg, "
               f"RMS misfit {misfit:.3g} (moments' spread {moments.std():.3g})")
     lone = orientation_path(sino)
-    print(f"orientation_path (a lone shape): held {lone.held}, B/A {lone.anisotropy / lone.isotropic:.3f}, "
+    print(f"  orientation_path (a lone shape): held {lone.held}, B/A {lone.anisotropy / lone.isotropic:.3f}, "
           f"misfit / B {lone.residual / max(lone.anisotropy, 1e-30):.3g}")
-    moving = next(i for i, o in enumerate(scene.objects) if o.motion.kind == "rotation")
-    print(f"true axis of object {moving} at the first view: {math.degrees(Pose.of(scene, moving, acq.times()).angle[0]) % 180:.1f} deg")
-
 
 if __name__ == "__main__":
     main()
