@@ -26,24 +26,7 @@ from scenes import Pose, draw_scene  # noqa: E402
 
 from nct.acquisition.geometry import ParallelGeometry  # noqa: E402
 from nct.acquisition.sinogram import Sinogram  # noqa: E402
-from nct.method.orientation import orientation_path, second_moments  # noqa: E402
-
-
-def steady_turn(theta: np.ndarray, tau: np.ndarray, moments: np.ndarray, still: bool) -> tuple[float, float, float]:
-    """The steady turn (rad per rotation), its phase φ0 and the RMS misfit of the best grid fit, with
-    (``still``) or without the still quadratic form's two terms."""
-    best = (math.inf, 0.0, 0.0)
-    for omega in np.arange(-2 * math.pi, 2 * math.pi, math.radians(0.5))[1:]:
-        phase = 2 * (theta - omega * tau)
-        columns = [np.ones_like(theta), np.cos(phase), np.sin(phase)]
-        if still:
-            columns += [np.cos(2 * theta), np.sin(2 * theta)]
-        design = np.stack(columns, axis=1)
-        coef, *_ = np.linalg.lstsq(design, moments, rcond=None)
-        misfit = float(np.sqrt(np.mean((design @ coef - moments) ** 2)))
-        if misfit < best[0]:
-            best = (misfit, omega, 0.5 * math.atan2(coef[2], coef[1]))
-    return best[1], best[2], best[0]
+from nct.method.orientation import orientation_path, second_moments, steady_turn  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -74,7 +57,8 @@ def report(scene, size: int) -> None:
         print(f"  object {i}: {obj.motion.kind}, true turn {turn:+.1f} deg/rotation, axis at the first view "
               f"{math.degrees(pose.angle[0]) % 180:.1f} deg")
     for still in (False, True):
-        omega, phi0, misfit = steady_turn(theta, tau, moments, still)
+        omega, coef, misfit = steady_turn(theta, tau, moments, still)
+        phi0 = 0.5 * math.atan2(coef[2], coef[1])
         print(f"  {'five terms (a still rest)' if still else 'three terms (a lone shape)'}: turn "
               f"{math.degrees(omega):+.1f} deg/rotation, axis at the first view {math.degrees(phi0) % 180:.1f} deg, "
               f"RMS misfit {misfit:.3g} (moments' spread {moments.std():.3g})")

@@ -14,6 +14,7 @@ from nct.method.orientation import (
     frame_coverage,
     orientation_path,
     second_moments,
+    steady_turn,
 )
 from tests.conftest import GEOMETRIES, closed_form_sinogram
 
@@ -77,3 +78,20 @@ def test_a_disc_a_changing_shape_and_fan_beam_hold_no_axis():
     growing = orientation_path(turning(GEOMETRIES["parallel"], 100.0, a=(0.2, 0.3))[0])
     assert not growing.held
     assert orientation_path(turning(GEOMETRIES["fan-flat"], 100.0)[0]) is None
+
+
+def test_a_turning_part_beside_a_still_one_is_read_with_the_still_rest():
+    """An ellipse turning 120 deg/rotation about its centre beside a larger still one (their centroid
+    still): the five-term fit (a still quadratic form added) reads the turn within 1 deg/rotation; the
+    lone shape's three terms do not."""
+    geometry = GEOMETRIES["parallel"]
+    angles = np.linspace(0, 2 * math.pi, VIEWS, endpoint=False)
+    axis = math.radians(10) + math.radians(120) * angles / (2 * math.pi)
+    values = np.stack([closed_form_sinogram(geometry, angles[v:v + 1], (
+        (0.15, 0.0, 0.2, 0.07, axis[v], 1.0), (-0.2, 0.05, 0.25, 0.12, 0.4, 1.0)), sub_rays=4)[0]
+        for v in range(VIEWS)])
+    sino = Sinogram(values.astype(np.float32), angles, angles / (2 * math.pi) * 0.25, geometry)
+    tau = angles / (2 * math.pi)
+    rest, _, _ = steady_turn(angles, tau, second_moments(sino), still_rest=True)
+    lone, _, _ = steady_turn(angles, tau, second_moments(sino))
+    assert abs(math.degrees(rest) - 120) < 1 and abs(math.degrees(lone) - 120) > 5

@@ -58,7 +58,8 @@ def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times:
     times = np.asarray(times, dtype=np.float64)
     centre = path.at(times)  # [F, 2], x right, y up
     centred = centred_views(sino, path)
-    turned = None if axis is None else turned_views(centred, axis)
+    held_at = None if axis is None else float(np.mean(axis.at(np.asarray(centred.times, dtype=np.float64))))
+    turned = None if axis is None else turned_views(centred, axis, held_at)
     if turned is None:
         frames = fbp_frames(centred, grid, times, window_deg, filter)
         return np.stack([shift(frame, (-cy / grid.pixel_size, cx / grid.pixel_size), order=1, mode="constant")
@@ -66,7 +67,7 @@ def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times:
     with warnings.catch_warnings():  # a frame seen over less than the window: the run's turn_warnings say so
         warnings.filterwarnings("ignore", message="the acquisition covers")
         frames = fbp_frames(turned, grid, times, window_deg, filter)
-    turn = axis.at(times) - _reference(axis, centred)
+    turn = axis.at(times) - held_at
     x, y = grid.xy()
     middle = (grid.size - 1) / 2
     moved = []
@@ -78,20 +79,15 @@ def compensated_frames(sino: Sinogram, path: Trajectory, grid: ImageGrid, times:
     return np.stack(moved)
 
 
-def turned_views(centred: Sinogram, axis: Orientation) -> Sinogram | None:
-    """Centred parallel views relabelled to the angles θ − (φ(t) − φ_mean) at which the object, held
-    at its mean axis, gives them; None where those angles do not advance one way (it turns as fast
-    as the gantry: then no window of them covers half a turn)."""
-    relabelled = np.asarray(centred.angles, dtype=np.float64) - (axis.at(centred.times) - _reference(axis, centred))
+def turned_views(centred: Sinogram, axis: Orientation, held_at: float) -> Sinogram | None:
+    """Centred parallel views relabelled to the angles θ − (φ(t) − ``held_at``) at which the object,
+    held at that axis (rad), gives them; None where those angles do not advance one way (it turns as
+    fast as the gantry: then no window of them covers half a turn)."""
+    relabelled = np.asarray(centred.angles, dtype=np.float64) - (axis.at(centred.times) - held_at)
     steps = np.diff(relabelled)
     if not (np.all(steps > 0) or np.all(steps < 0)):
         return None
     return replace(centred, angles=relabelled)
-
-
-def _reference(axis: Orientation, sino: Sinogram) -> float:
-    """The axis the object is held at in `turned_views`: its mean over the views."""
-    return float(np.mean(axis.at(np.asarray(sino.times, dtype=np.float64))))
 
 
 def focused_path(residual: Sinogram, total: Trajectory, grid: ImageGrid) -> tuple[Trajectory, float]:

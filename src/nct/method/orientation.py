@@ -101,20 +101,33 @@ def orientation_path(sino: Sinogram) -> Orientation | None:
         return _fit(theta, tau, m, float(times[0]), rotation_time, span)
 
 
+def steady_turn(theta: np.ndarray, tau: np.ndarray, moments: np.ndarray,
+                still_rest: bool = False) -> tuple[float, np.ndarray, float]:
+    """The steady turn φ = φ0 + ωτ that best explains the views' ``moments`` [V] at angles ``theta``
+    [V] rad and rotations ``tau`` [V] since the first view, on a grid of turns slower than the
+    gantry's (each a linear least-squares fit): (ω rad per rotation, coefficients of 1, cos 2(θ − ωτ),
+    sin 2(θ − ωτ) [and, ``still_rest``, cos 2θ, sin 2θ: a still rest's quadratic form beside one
+    turning part], RMS misfit)."""
+    turns = np.arange(-2 * math.pi + SEARCH_STEP, 2 * math.pi, SEARCH_STEP)  # the mirror turns faster than 2π
+    best = (math.inf, 0.0, np.zeros(5 if still_rest else 3))
+    for omega in turns:
+        phase = 2 * (theta - omega * tau)
+        columns = [np.ones_like(phase), np.cos(phase), np.sin(phase)]
+        if still_rest:
+            columns += [np.cos(2 * theta), np.sin(2 * theta)]
+        design = np.stack(columns, axis=1)
+        coef, *_ = np.linalg.lstsq(design, moments, rcond=None)
+        misfit = float(np.sqrt(np.mean((design @ coef - moments) ** 2)))
+        if misfit < best[0]:
+            best = (misfit, omega, coef)
+    return best[1], best[2], best[0]
+
+
 def _fit(theta: np.ndarray, tau: np.ndarray, m: np.ndarray, start: float, rotation_time: float,
          span: float) -> Orientation:
     """`orientation_path`'s work on the usable views: angles [V] rad, rotations since the first view
     [V], moments [V]."""
-    turns = np.arange(-2 * math.pi + SEARCH_STEP, 2 * math.pi, SEARCH_STEP)  # the mirror turns faster than 2π
-    best = (math.inf, 0.0, np.zeros(3))
-    for omega in turns:
-        phase = 2 * (theta - omega * tau)
-        design = np.stack([np.ones_like(phase), np.cos(phase), np.sin(phase)], axis=1)
-        coef, *_ = np.linalg.lstsq(design, m, rcond=None)
-        misfit = float(np.sum((design @ coef - m) ** 2))
-        if misfit < best[0]:
-            best = (misfit, omega, coef)
-    _, omega, (a, c, s) = best
+    omega, (a, c, s), _ = steady_turn(theta, tau, m)
     n = max(2, math.ceil(TERMS_PER_ROTATION * span - 1e-9))
     s_scan = 2 * tau / span - 1
     basis = legvander(s_scan, n - 1)
