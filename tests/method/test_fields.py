@@ -79,6 +79,28 @@ def lone(family: str = "siren", n_terms: int = 3):
     return f
 
 
+def test_one_part_turns_about_its_centre_and_the_others_stay():
+    """Object 1 of two seen at the pixel centre m = (5, -3)/32 with its axis at -90, 0, +90 deg: at t = 1
+    its channel is the unturned one looked up at m + R(-90 deg)(x - m) (pixel centres onto pixel
+    centres), object 0's is unchanged, and the field is not carried."""
+    f = field(n_terms=3)
+    t, size = torch.tensor([1.0]), 32
+    still = f.sdf(f.on_lattice(size), t)[0].detach()
+    centres = torch.tensor([[0.0, 0.0], [5 / 32, -3 / 32]]).expand(3, 2, 2)
+    angles = torch.tensor([[0.0, -1.0], [0.0, 0.0], [0.0, 1.0]]) * math.pi / 2
+    seen = Sightings(torch.tensor([0.0, 0.5, 1.0]), centres, angles, torch.full((2,), 0.6), turned=1)
+    f.start_motion(seen)
+    turned = f.sdf(f.on_lattice(size), t)[0].detach()
+    assert f.describe()["turned_object"] == 1 and not f.describe()["carried"]
+    torch.testing.assert_close(turned[0], still[0])
+    # pixel (row i, column j) lies at x = (2j + 1)/32 - 1, y = 1 - (2i + 1)/32; m at column 18, row 17
+    i, j = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
+    source_j, source_i = 18 - (i - 17), 17 + (j - 18)  # R(-90 deg) (dx, dy) = (dy, -dx), rows run down
+    inside = (source_i >= 0) & (source_i < size) & (source_j >= 0) & (source_j < size)
+    expected = still[1].reshape(size, size)[source_i[inside], source_j[inside]]
+    torch.testing.assert_close(turned[1].reshape(size, size)[inside], expected, atol=1e-5, rtol=1e-4)
+
+
 @pytest.mark.parametrize("family", ["siren", "grid"])
 def test_a_held_object_is_carried_along_its_path(family):
     """g(x - d(t), t), d the centres' path about its mean: at t = 1 (d = 2 px right, 1 down) the carried
@@ -100,7 +122,7 @@ def test_a_turned_object_turns_with_its_axis():
     t = torch.tensor([1.0])
     still = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
     seen = replace(sightings(held=True, px=0.0, reach=0.6), angles=torch.tensor([[-1.0], [0.0], [1.0]]) * math.pi / 2,
-                   turned=True)
+                   turned=0)
     f.start_motion(seen)
     turned = f.sdf(f.on_lattice(32), t).reshape(32, 32).detach()
     assert f.describe()["turned"] and "turn" in f.state_dict()

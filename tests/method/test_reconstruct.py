@@ -25,12 +25,13 @@ from nct.method.conf import (
     TrainerConf,
 )
 from nct.method.fields import ModelConf
+from nct.method.initialise import Start
 from nct.method.prepare import (
     heldout_standard_error,
     rotations_since_start,
     split_views,
 )
-from nct.method.reconstruct import reconstruct
+from nct.method.reconstruct import candidates, reconstruct
 from nct.method.render import project_frames
 from nct.method.select import SelectionConf
 from nct.physics.projector import fbp_frames
@@ -46,6 +47,7 @@ from tests.conftest import (
     closed_form_sinogram,
     fit_composed,
     moving_disc,
+    still,
 )
 
 GRID = ImageGrid(32)
@@ -97,6 +99,24 @@ def test_a_turning_bar_is_carried_and_turned_with_its_axis():
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, ImageGrid(40), times), sino.truth.frames, level).dice))
     assert nct >= 0.9 and fbp < 0.6
+
+
+def test_one_turning_part_among_still_ones_turns_with_its_axis():
+    """A bar (0.25 x 0.1) turning 150 deg/rotation about its own still centre beside a still disc, 40 px:
+    the part's axis is read off the views beside the disc's, and the free field turning the bar (the
+    brighter object) wins the tournament over turning the disc or neither. Measured: the bar's Dice
+    0.94 (the unturned free field's 0.78; FBP 0.69)."""
+    bar = EllipseConf(x=Signal(0.1), y=Signal(0.08), a=Signal(0.25), b=Signal(0.1), angle_deg=Signal(rate=150.0),
+                      intensity=Signal(1.0))
+    sino, times, result = fit_composed([bar, still(-0.2, -0.18, 0.1, 0.1, 0.4)], ImageGrid(40), OPTIM)
+    bright = int(np.argmax(result.intensities))
+    assert result.selection["winner"] == f"free_turn{bright}" and result.model["turned_object"] == bright
+    raced = {row["candidate"] for row in result.selection["table"]}
+    assert raced == {"free", "free_start1", "free_turn0", "free_turn1"}
+    bar_truth = (sino.truth.frames > 0.7).astype(np.float32)  # the bar alone: 1.0 over the disc's 0.4
+    nct = float(np.median(frame_metrics(result.frames, bar_truth, 0.5).dice))
+    fbp = float(np.median(frame_metrics(fbp_frames(sino, ImageGrid(40), times), bar_truth, 0.7).dice))
+    assert nct >= 0.9 and fbp < 0.75, (nct, fbp)
 
 
 def test_fit_never_reads_the_truth(acquisition):
@@ -301,3 +321,16 @@ def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_marg
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))
     assert nct >= 0.93 and nct >= fbp + 0.08
+
+
+@pytest.mark.parametrize("rungs, turning, extra", [(["free"], 3, ["free_turn0", "free_turn1", "free_turn2"]),
+                                                   (["free"], 0, []), (["static", "rigid"], 2, [])])
+def test_a_held_part_axis_adds_one_turned_free_field_per_object(rungs, turning, extra):
+    """Which of K objects turns with a part's axis (prepare.py) is raced as the free rung from the best
+    judged start turning each of them, the same model as the unturned free field; no free rung, none."""
+    starts = [Start(np.zeros((1, 1, 2, 2)))] * 2
+    pool = candidates(SelectionConf(rungs=rungs), starts, span=1.0, turning=turning)
+    assert [c.name for c in pool] == [f"{r}{s}" for r in rungs for s in ("", "_start1")] + extra
+    turned = [c for c in pool if c.turning is not None]
+    assert [c.turning for c in turned] == list(range(len(extra)))
+    assert all(c.start == 0 and c.simplicity == pool[0].simplicity for c in turned)

@@ -131,7 +131,9 @@ class Field(SpaceTimeField):
     products, and g one function of x whatever lattice asks for it. The static rung is not carried.
     Where the object's axis is held too (``Sightings.turned``: an elongated rigid shape's, orientation.py),
     h turns with it: g(x, t) = h(R(-phi(t)) (x - c(t)), t), phi the axis about its mean (a Legendre series
-    as d), looked up by bilinear sampling (a turn is not separable).
+    as d), looked up by bilinear sampling (a turn is not separable). Among several objects, one part
+    turning about a still centre m (``Sightings.turned``: object k, its axis read off the views beside
+    still ones) turns likewise, uncarried: g_k(x, t) = h_k(m + R(-phi(t)) (x - m), t) on the image's lattice.
     """
 
     def __init__(self, conf: ModelConf, n_objects: int, generator: torch.Generator, span: float = 1.0) -> None:
@@ -144,11 +146,12 @@ class Field(SpaceTimeField):
         self.n_carry = series_terms(conf, span)
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("carry", torch.zeros(2, self.n_carry))  # d(t)'s series, image units
-        self.register_buffer("centre", torch.zeros(2))  # m
+        self.register_buffer("centre", torch.zeros(2))  # m: the carried path's mean, or a turning part's centre
         self.register_buffer("extent", torch.tensor(1.0))  # h's lattice covers m +- this
         self.register_buffer("carried", torch.tensor(False))
         self.register_buffer("turn", torch.zeros(self.n_carry))  # phi(t)'s series, rad
         self.register_buffer("turned", torch.tensor(False))
+        self.register_buffer("turned_object", torch.tensor(0))  # k, the object that turns with phi
 
     @property
     def side(self) -> int:
@@ -159,18 +162,24 @@ class Field(SpaceTimeField):
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
-        """Carry a lone object's field along ``seen``'s centres where they are held (class docstring)."""
-        if not seen.held or self.temporal is None or self.n_objects != 1:
+        """Carry a lone object's field along ``seen``'s centres where they are held, and turn the object
+        whose axis they hold (class docstring)."""
+        if self.temporal is None:
             return
-        centres = seen.centres[:, 0].to(self.carry)  # [F, 2]
-        self.centre.copy_(centres.mean(dim=0))
-        self.carry.copy_(legendre_fit(on_scan(seen.times, self.span), centres - self.centre, self.n_carry).T)
-        self.extent.copy_(seen.cover()[0])
-        self.carried.fill_(True)
-        if seen.turned:
-            angles = seen.angles[:, :1].to(self.turn)  # [F, 1]
-            self.turn.copy_(legendre_fit(on_scan(seen.times, self.span), angles - angles.mean(), self.n_carry)[:, 0])
+        s = on_scan(seen.times, self.span)
+        if seen.held and self.n_objects == 1:
+            centres = seen.centres[:, 0].to(self.carry)  # [F, 2]
+            self.centre.copy_(centres.mean(dim=0))
+            self.carry.copy_(legendre_fit(s, centres - self.centre, self.n_carry).T)
+            self.extent.copy_(seen.cover()[0])
+            self.carried.fill_(True)
+        elif seen.turned is not None:
+            self.centre.copy_(seen.centres[:, seen.turned].mean(dim=0))
+        if seen.turned is not None:
+            angles = seen.angles[:, seen.turned, None].to(self.turn)  # [F, 1]
+            self.turn.copy_(legendre_fit(s, angles - angles.mean(), self.n_carry)[:, 0])
             self.turned.fill_(True)
+            self.turned_object.fill_(seen.turned)
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -231,27 +240,41 @@ class Field(SpaceTimeField):
     def carry_along(self, values: Tensor, t: Tensor, size: int | None) -> Tensor:
         """h ``values`` [T, 1, S^2] on its own lattice moved along the carried path and looked up at the
         pixel centres of a size x size image: h(x - d(t)) [T, 1, size^2] (bilinear, h's border held
-        beyond it); ``values`` unchanged where size is None (not carried)."""
+        beyond it); where size is None (not carried), ``values`` [T, K, P] with a turning part's
+        channel turned (class docstring)."""
         if size is None:
-            return values
+            return self._turned_part(values, t) if bool(self.turned) else values
         series = legendre(on_scan(t, self.span), self.n_carry)
         shift = series @ self.carry.T + self.centre  # d(t) + m, [T, 2]
         u = pixel_centres(size).to(values)
         side = math.isqrt(values.shape[-1])
         if bool(self.turned):
-            return self._turned_along(values.reshape(t.shape[0], 1, side, side), shift, series @ self.turn, u)
+            h = values.reshape(t.shape[0], 1, side, side)
+            return self._turned_along(h, shift, series @ self.turn, u, torch.zeros_like(self.centre))
         rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, side)  # rows run down, y up
         cols = interpolation_on_pixels((u - shift[:, :1]) / self.extent, side)
         h = values.reshape(t.shape[0], side, side)
         return (rows @ h @ cols.transpose(-1, -2)).reshape(t.shape[0], 1, size * size)
 
-    def _turned_along(self, h: Tensor, shift: Tensor, phi: Tensor, u: Tensor) -> Tensor:
-        """h [T, 1, S, S] looked up at R(-phi) (x - shift) for x the pixel centres ``u`` [n] of an n x n
-        image, shift [T, 2], phi [T]: [T, 1, n^2] (bilinear, h's border held, as ``carry_along``)."""
+    def _turned_part(self, values: Tensor, t: Tensor) -> Tensor:
+        """``values`` [T, K, P] on the image's lattice with object k's channel looked up at
+        m + R(-phi(t)) (x - m): [T, K, P]."""
+        k, side = int(self.turned_object), math.isqrt(values.shape[-1])
+        phi = legendre(on_scan(t, self.span), self.n_carry) @ self.turn
+        h = values[:, k:k + 1].reshape(t.shape[0], 1, side, side)
+        looked = self._turned_along(h, self.centre.expand(t.shape[0], 2), phi, pixel_centres(side).to(values),
+                                    self.centre)
+        return torch.cat([values[:, :k], looked, values[:, k + 1:]], dim=1)
+
+    def _turned_along(self, h: Tensor, shift: Tensor, phi: Tensor, u: Tensor, offset: Tensor) -> Tensor:
+        """h [T, 1, S, S] over ``extent`` looked up at ``offset`` + R(-phi) (x - shift) for x the pixel
+        centres ``u`` [n] of an n x n image, shift [T, 2], phi [T], offset [2]: [T, 1, n^2] (bilinear, h's
+        border held, as ``carry_along``)."""
         dx = u[None, None, :] - shift[:, :1, None]  # [T, 1, n]: columns
         dy = -u[None, :, None] - shift[:, 1:, None]  # [T, n, 1]: rows run down, y up
         cos, sin = phi.cos()[:, None, None], phi.sin()[:, None, None]
-        qx, qy = (cos * dx + sin * dy) / self.extent, (cos * dy - sin * dx) / self.extent
+        qx = (offset[0] + cos * dx + sin * dy) / self.extent
+        qy = (offset[1] + cos * dy - sin * dx) / self.extent
         where = torch.stack([qx, -qy], dim=-1)  # grid_sample's y runs down the rows
         looked = F.grid_sample(h, where, mode="bilinear", padding_mode="border", align_corners=False)
         return looked.reshape(h.shape[0], 1, -1)
@@ -265,6 +288,7 @@ class Field(SpaceTimeField):
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
             "carried": bool(self.carried),
             "turned": bool(self.turned),
+            "turned_object": int(self.turned_object) if bool(self.turned) else None,
         }
 
 

@@ -80,4 +80,12 @@ def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
     seen = replace(seen, centres=torch.from_numpy(prob.centres[:, None, :]).float(), held=True)
     if prob.orientations is None:
         return seen
-    return replace(seen, angles=torch.from_numpy(prob.orientations[:, None]).float(), turned=True)
+    return replace(seen, angles=torch.from_numpy(prob.orientations[:, None]).float(), turned=0)
+
+
+def turned_start(prob: Problem, start: Start, k: int) -> Start:
+    """``start`` with object ``k`` turning with the part's axis read off the views (``prob.part_orientations``;
+    orientation.turning_part) about its masks' mean centre: where a free field turning it starts."""
+    angles = start.seen.angles.clone()
+    angles[:, k] = torch.from_numpy(prob.part_orientations).float()
+    return replace(start, seen=replace(start.seen, angles=angles, turned=k))

@@ -50,15 +50,16 @@ class Sightings:
     centre (image units: what its template must cover). ``held``: the centres are the mass centroid's
     path read off the views (initialise.sightings), which the fit keeps: the views' first moments
     tell all the data can of a rigid object's centre, and a fitted centre drifts along the rays
-    where no view sees it (the circle at 150 deg/rotation: 8 px). ``turned``: the angles too are the
-    lone object's axis read off the views (orientation.py), which a carried free field turns with."""
+    where no view sees it (the circle at 150 deg/rotation: 8 px). ``turned``: the object whose angles are
+    its axis read off the views (orientation.py: a lone one's, or one part's among still ones), which
+    the free field turns with (None: none)."""
 
     times: Tensor
     centres: Tensor
     angles: Tensor
     reach: Tensor
     held: bool = False
-    turned: bool = False
+    turned: int | None = None
 
     def cover(self) -> Tensor:
         """The half-width [K] a shape held in its object's frame covers: its reach with room

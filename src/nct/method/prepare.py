@@ -19,7 +19,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.method.compensate import compensated_frames
 from nct.method.conf import HeldoutConf, InitConf, LossConf
 from nct.method.normalise import Units, field_of_view
-from nct.method.orientation import frame_coverage, orientation_path
+from nct.method.orientation import frame_coverage, orientation_path, turning_part
 from nct.method.stages import Views
 from nct.method.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
@@ -75,7 +75,9 @@ class Problem:
     ``clock``; for a lone object, its mass centroid's ``centres`` [F, 2] at ``init_times`` read off
     the fitted views (image coordinates: [-1, 1], x right, y up; None otherwise) and, where it is
     elongated and rigid, its principal axis's ``orientations`` [F] (rad, counter-clockwise; None
-    otherwise: orientation.py) and the degrees of view angle its own frame is seen over
+    otherwise: orientation.py); among several objects, the axis of one rigid part turning about a
+    still centre beside still ones, ``part_orientations`` [F] (None: none held; which object it is,
+    the tournament chooses); the degrees of view angle the turning object's own frame is seen over
     (``frame_coverage_deg``); the FBP frames' settings."""
 
     grid: ImageGrid
@@ -89,6 +91,7 @@ class Problem:
     clock: Clock
     centres: np.ndarray | None = None
     orientations: np.ndarray | None = None
+    part_orientations: np.ndarray | None = None
     frame_coverage_deg: float | None = None
     fbp_window_deg: float = 180.0
     fbp_filter: str = "ramp"
@@ -122,13 +125,15 @@ class Problem:
 
 
 def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, heldout: HeldoutConf,
-            fbp_filter: str, fbp_window_deg: float, lone: bool = False) -> Problem:
+            fbp_filter: str, fbp_window_deg: float, lone: bool = False, parts: bool = False) -> Problem:
     """The ``Problem`` of reconstructing ``sino`` on ``grid``: views split, FBP frames of the fitted
     views at ``init.frames_per_rotation``, data scaled to a field of view of side 1 and the FBP's peak.
     With one object ``lone`` in the views (no background) whose mass stays steady (a rigid mover;
     trajectory.steady_mass), its centroid's path is read off their first moments (parallel beam:
     trajectory.centroid_path) and the FBP frames undo its translation (compensate.py); where it is
-    elongated and rigid, its axis is read off their second moments too (orientation.py)."""
+    elongated and rigid, its axis is read off their second moments too (orientation.py). With several
+    objects and no background (``parts``), the axis of one part turning among still ones is read there
+    (orientation.turning_part); the FBP frames stay plain."""
     clock = rotations_since_start(sino)
     fit_views, held_views = split_views(sino.n_views, heldout.every, heldout.run)
     n_init = max(2, round(init.frames_per_rotation * float(clock(sino.times[-1]))))
@@ -136,7 +141,7 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     lengths = field_of_view(grid)
     grid = lengths.grid(grid)
     fitted = subset(lengths.sinogram(sino), fit_views)
-    centres = orientations = coverage = None
+    centres = orientations = part = coverage = None
     path = centroid_path(fitted) if lone and steady_mass(fitted) else None
     if path is not None:
         axis = orientation_path(fitted)
@@ -147,10 +152,13 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
             orientations, coverage = axis.at(init_times), frame_coverage(fitted, axis)
     else:
         fbp = fbp_frames(fitted, grid, init_times, fbp_window_deg, fbp_filter)
+        axis = turning_part(fitted) if parts else None
+        if axis is not None and axis.held:
+            part, coverage = axis.at(init_times), frame_coverage(fitted, axis)
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
     return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres,
-                   orientations, coverage, fbp_window_deg, fbp_filter)
+                   orientations, part, coverage, fbp_window_deg, fbp_filter)

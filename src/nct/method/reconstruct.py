@@ -30,7 +30,7 @@ from nct.method.conf import (
 )
 from nct.method.fields import ModelConf, SpaceTimeField, build_field
 from nct.method.fitting import Fitted, Session, at_rate, init_fit, sinogram_fit, streams
-from nct.method.initialise import Start, find_starts
+from nct.method.initialise import Start, find_starts, turned_start
 from nct.method.prepare import Problem, heldout_standard_error, prepare
 from nct.method.render import intensity
 from nct.method.sdf import binarise, masks_to_sdf
@@ -83,16 +83,22 @@ class NCTResult:
     background: np.ndarray | None = None
 
 
-def candidates(motion: SelectionConf, starts: list[Start], span: float) -> list[Candidate]:
+def candidates(motion: SelectionConf, starts: list[Start], span: float, turning: int = 0) -> list[Candidate]:
     """One candidate per model and start (named ``<model>`` for the best judged start, ``<model>_start<n>``
     for the others, so that more starts change no name): each rung of ``motion.rungs``, and on a scan of
     ``span`` >= ``motion.band_min_rotations`` rotations the free rung at ``motion.band_f_max`` too
-    (``free_band``); simpler models, then better judged starts, first."""
+    (``free_band``); simpler models, then better judged starts, first. Where one of ``turning`` objects
+    turns with a part's axis read off the views (prepare.py), the free rung from the best judged start
+    turning each of them in turn (``free_turn<k>``): the same model, which object turns the held-out
+    views tell."""
     models = [(rung, rung, (RUNGS.index(rung), 0), None) for rung in motion.rungs]
     if "free" in motion.rungs and motion.band_f_max is not None and span >= motion.band_min_rotations:
         models.append(("free_band", "free", (RUNGS.index("free"), 1), motion.band_f_max))
-    return [Candidate(f"{name}_start{n}" if n else name, rung, simplicity, n, f_max)
+    pool = [Candidate(f"{name}_start{n}" if n else name, rung, simplicity, n, f_max)
             for name, rung, simplicity, f_max in models for n in range(len(starts))]
+    if "free" not in motion.rungs:
+        return pool
+    return pool + [Candidate(f"free_turn{k}", "free", (RUNGS.index("free"), 0), 0, None, k) for k in range(turning)]
 
 
 @torch.no_grad()
@@ -139,7 +145,8 @@ def reconstruct(
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
     prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg,
-                   lone=n_objects == 1 and background.name != "image")
+                   lone=n_objects == 1 and background.name != "image",
+                   parts=n_objects > 1 and background.name != "image")
     run_rng = np.random.default_rng(seed)
     starts = find_starts(prob, n_objects, init, run_rng, background)
     verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
@@ -206,11 +213,12 @@ def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[
             conf = model if cand.f_max is None else replace(model, f_max=cand.f_max)
             nets[cand.name] = net = build_field(conf, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
                                                   prob.span)
-            misfit = init_fit(prob, session, net, cand.name, starts[cand.start], optim.init_steps, optim, render, rng,
+            begin = starts[cand.start] if cand.turning is None else turned_start(prob, starts[cand.start], cand.turning)
+            misfit = init_fit(prob, session, net, cand.name, begin, optim.init_steps, optim, render, rng,
                               optim.coarse_size)
         started[cand.name] = misfit, copy.deepcopy(net.state_dict()), rng
 
-    pool = candidates(motion, starts, prob.span)
+    pool = candidates(motion, starts, prob.span, 0 if prob.part_orientations is None else n_objects)
     for cand in pool:
         start(cand)
     tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)

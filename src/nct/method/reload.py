@@ -29,7 +29,8 @@ from nct.method.reconstruct import field_frames
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
-UNTURNED = ("turn", "turned")  # a field saved before a carried field could turn (session 40) renders unturned
+# A field saved before fields could turn (session 40) or turn one part of several (41) renders as fitted
+UNTURNED = ("turn", "turned", "turned_object")
 
 
 @dataclass(frozen=True)

@@ -58,13 +58,15 @@ class SelectionConf:
 class Candidate:
     """One choice in the tournament: a unique ``name`` (its random streams derive from it), its motion
     ``rung``, its model's ``simplicity`` (lower is simpler: the ladder's order, then the band), the index
-    of the ``start`` it begins from and its field's ``f_max`` (None: model.f_max)."""
+    of the ``start`` it begins from, its field's ``f_max`` (None: model.f_max) and the object its free
+    field turns with a turning part's axis read off the views (``turning``; None: none, prepare.py)."""
 
     name: str
     rung: str
     simplicity: tuple[int, ...]
     start: int = 0
     f_max: float | None = None
+    turning: int | None = None
 
 
 @dataclass
