@@ -37,12 +37,13 @@ SEARCH_STEP = math.radians(1.0)  # the grid of steady turns searched first, radi
 # A part's turn is told apart from the still rest's terms where it turns by this much over the scan
 # (degrees; cos 2(θ − φ) differs from cos 2θ by up to 2 sin φ: 0.52 of its norm at 15°) and its frame is
 # seen over this much view angle (a turn with the gantry makes its terms constant). Over the 100
-# generalisation scenes the rule holds the seven with one rigid part turning among still ones, each turn
-# within 1°/rotation, and no other; a translation beside a still object read 3°/scan, still scenes ±359°/rotation.
+# generalisation scenes (benchmarks/diagnostics/turning_part.py --scenes all) the rules hold on six of the
+# ten with one part turning among still ones and on scene029 (two turning: the larger one's), each turn
+# within 1°/rotation, and on no other; a translation beside a still object read 3°/scan, still scenes ±359°.
 PART_TURN = 15.0
 PART_COVERAGE = 90.0
 # The part model holds the whole mass's centroid still: the views' centroids must fit one still centre's
-# projections to this RMS (detector bins). The seven read 0.002-0.023 (noise included); scenes with a
+# projections to this RMS (detector bins). Those seven read 0.002-0.023 (noise included); scenes with a
 # translating object 0.09-1.5, and a disc orbiting beside a still one (tests/method/test_initialise.py),
 # whose relative offset's quadratic form turns like a part, far more.
 STILL_CENTRE = 0.05
