@@ -27,7 +27,12 @@ from scenes import Pose, draw_scene  # noqa: E402
 
 from nct.acquisition.geometry import ParallelGeometry  # noqa: E402
 from nct.acquisition.sinogram import Sinogram  # noqa: E402
-from nct.method.orientation import orientation_path, second_moments, steady_turn, turning_part  # noqa: E402
+from nct.method.orientation import (  # noqa: E402
+    orientation_path,
+    second_moments,
+    steady_turn,
+    turning_part,
+)
 
 
 def main(argv: list[str] | None = None) -> None:
