@@ -69,7 +69,8 @@ class Orientation:
     """A principal axis φ(t) from `orientation_path`: Legendre ``coefficients`` [n] of φ (rad,
     counter-clockwise from x) over the scan of ``span`` rotations from ``start_time`` (s), one rotation
     every ``rotation_time`` s; the views' moments' ``isotropic`` A and ``anisotropy`` B (length
-    units²) and the model's RMS ``residual`` there."""
+    units²) and the model's RMS ``residual`` there; ``part``: one turning part's among still ones
+    (`turning_part`), not a lone shape's."""
 
     start_time: float
     rotation_time: float
@@ -79,7 +80,6 @@ class Orientation:
     anisotropy: float
     residual: float
     part: bool = False
-
 
     def at(self, times: np.ndarray) -> np.ndarray:
         """φ at ``times`` [T] s: [T] rad."""
