@@ -117,8 +117,12 @@ def turning_part(sino: Sinogram) -> Orientation | None:
     ``part`` set; None in fan beam, with fewer than 5 usable views, where the whole mass's centroid is not
     still (STILL_CENTRE) and where the turn cannot be told from the rest's terms: under PART_TURN degrees
     over the scan, or its frame seen over less than PART_COVERAGE degrees of view angle (`frame_coverage`)."""
+    if not isinstance(sino.geometry, ParallelGeometry):
+        return None
+    if still_centre_misfit(sino) > STILL_CENTRE * sino.geometry.bin_spacing:  # cheap: before the turns' grid
+        return None
     axis = _read(sino, part=True)
-    if axis is None or still_centre_misfit(sino) > STILL_CENTRE * sino.geometry.bin_spacing:
+    if axis is None:
         return None
     turn = np.degrees(np.ptp(axis.at(axis.start_time + np.linspace(0, axis.span, 64) * axis.rotation_time)))
     return axis if turn >= PART_TURN and frame_coverage(sino, axis) >= PART_COVERAGE else None

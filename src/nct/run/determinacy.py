@@ -5,8 +5,9 @@ measures the spread, along the ray of the view taken at each instant, between eq
 motion along that ray changes no view, so only a prior over time fills it in. With several objects
 the first moment is the whole mass's centroid: the verdict is on where the total mass goes, and an
 object moving against another (their centroid still) can go unflagged; a still scene reads 0 px.
-A lone object turned with its held axis (method/orientation.py) is seen in its own frame over the span
-of θ − φ(t) alone: below half a turn, what those views leave open of its shape is the prior's.
+An object turned with a held axis (a lone one's or one part's among still ones: method/orientation.py)
+is seen in its own frame over the span of θ − φ(t) alone: below half a turn, what those views leave
+open of its shape is the prior's.
 """
 
 from __future__ import annotations
