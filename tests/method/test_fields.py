@@ -203,8 +203,24 @@ def test_field_owns_its_intensities():
     f = field(n_terms=3)
     f.set_intensities(torch.tensor([0.25] * f.n_objects))
     torch.testing.assert_close(f.intensities, torch.full((f.n_objects,), 0.25))
-    assert "log_intensities" in f.state_dict()
+    assert "log_intensities" in f.state_dict() and "signs" in f.state_dict()
     assert all(p is not f.log_intensities for p in f.shape_parameters())
+
+
+def test_a_darker_nested_object_keeps_its_sign_while_its_magnitude_is_fitted():
+    """a(k) starts at [1.0, -0.75] (a lung in a body): steps on the log-magnitude move both and
+    never flip the sign, however hard the loss pulls the second through zero."""
+    f = field(n_terms=3)  # two objects
+    f.set_intensities(torch.tensor([1.0, -0.75]))
+    torch.testing.assert_close(f.intensities, torch.tensor([1.0, -0.75]))
+    opt = torch.optim.SGD([f.log_intensities], lr=0.5)
+    for _ in range(20):
+        opt.zero_grad()
+        ((f.intensities - torch.tensor([1.2, 0.5])) ** 2).sum().backward()
+        opt.step()
+    a = f.intensities.detach()
+    assert float(a[0]) == pytest.approx(1.2, abs=0.01)
+    assert -0.1 < float(a[1]) < 0  # pulled towards +0.5, it shrinks towards 0 and stays negative
 
 
 @pytest.mark.parametrize("key, value", [("family", "mlp"), ("width", 0), ("n_terms", -1), ("f_max", -0.1),

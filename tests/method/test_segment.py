@@ -141,6 +141,22 @@ def test_an_object_inside_a_dimmer_one_adds_to_it():
                                [0.5, 1.5], atol=0.05)
 
 
+def test_a_nodule_in_a_lung_in_a_body_nests_in_the_lung_alone():
+    """A lung (0.25) in a body (1.0) with a nodule (2.0) in the lung, slightly noisy: the lung nests in
+    the body with a negative intensity (-0.75), the nodule in the innermost container (the lung: +1.75);
+    the body's mask is filled through both, so no pixel holds the body without what lies inside it."""
+    x, y = ImageGrid(64).xy()
+    body, lung = (x / 0.35) ** 2 + (y / 0.25) ** 2 < 1, (x + 0.15) ** 2 + y**2 < 0.1**2
+    nodule = (x + 0.15) ** 2 + (y - 0.02) ** 2 < 0.04**2
+    image = np.where(nodule, 2.0, np.where(lung, 0.25, np.where(body, 1.0, 0.0)))
+    frames = np.stack([image] * 4) + np.random.default_rng(0).normal(0.0, 0.02, (4, *image.shape))
+    seg = segment(frames.astype(np.float32), 3, np.random.default_rng(0))
+    order = np.argsort(-seg.masks.sum(axis=(0, 2, 3)))  # body, lung, nodule by area
+    np.testing.assert_allclose(seg.intensities[order], [1.0, -0.75, 1.75], atol=0.05)
+    for k, truth in zip(order, (body, lung, nodule)):
+        assert dice(seg.masks[:, k], np.stack([truth] * 4)).min() > 0.97
+
+
 def test_one_dimensional_labels_are_those_of_the_mixture():
     """predict_1d (used for the million pixels of a run) labels as GaussianMixture.predict does,
     chunked or not, on overlapping classes where the boundaries matter."""
@@ -163,7 +179,7 @@ def test_each_candidate_is_judged_once():
     images, _ = two_object_frames()
     judged: list[bytes] = []
 
-    def judge(masks):
+    def judge(masks, signs):
         judged.append(np.sort([m.tobytes() for m in masks.transpose(1, 0, 2, 3)]).tobytes())
         return float(len(judged)), np.ones(masks.shape[1])
 

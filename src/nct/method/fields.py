@@ -72,7 +72,8 @@ class SpaceTimeField(nn.Module):
     ``on_lattice(size)`` evaluates what does not depend on time once per step and returns it as an
     opaque value c; ``sdf(c, t)`` [T, K, P] and ``sdf_rate(c, t)`` [T, K, P] give g and dg/dt (per
     rotation) at the lattice's P points at times t [T] (rotations). The field also owns each
-    object's intensity a(k) (log-parameterised, so it stays > 0; 1 until ``set_intensities``) and
+    object's intensity a(k) (its magnitude log-parameterised, so its sign stays the start's: < 0 only
+    for an object darker than the one it nests in, segment.nest; 1 until ``set_intensities``) and
     the static background image b [H, W] under the objects where there is one (None until
     ``set_background``; background.py), so one checkpoint holds everything that renders the image."""
 
@@ -80,17 +81,20 @@ class SpaceTimeField(nn.Module):
         super().__init__()
         self.n_objects = n_objects
         self.log_intensities = nn.Parameter(torch.zeros(n_objects))
+        self.register_buffer("signs", torch.ones(n_objects))
         self.register_parameter("background", None)
 
     @property
     def intensities(self) -> Tensor:
         """a(k) [K]."""
-        return self.log_intensities.exp()
+        return self.signs * self.log_intensities.exp()
 
     @torch.no_grad()
     def set_intensities(self, values: Tensor) -> None:
-        """Start a(k) at ``values`` [K] (> 0), e.g. Algorithm 1's estimate."""
-        self.log_intensities.copy_(values.to(self.log_intensities).log())
+        """Start a(k) at ``values`` [K] (nonzero), e.g. Algorithm 1's estimate; their signs stay."""
+        values = values.to(self.log_intensities)
+        self.signs.copy_(torch.where(values < 0, -1.0, 1.0))
+        self.log_intensities.copy_(values.abs().log())
 
     @torch.no_grad()
     def set_background(self, image: Tensor) -> None:

@@ -21,7 +21,7 @@ from nct.physics.projector import project
 
 MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more ...
 MAX_PIXELS = 2**25  # ... and fewer where their mask images would hold more pixels than this (memory)
-MIN_SHARE = 0.05  # an object's intensity is at least this share of the brightest (log-parameterised a(k) > 0)
+MIN_SHARE = 0.05  # an object's |intensity| is at least this share of the largest (log-parameterised |a(k)| > 0)
 
 
 def sinogram_judge(
@@ -34,10 +34,11 @@ def sinogram_judge(
 ) -> Judge:
     """A `segment.Judge` over up to MAX_VIEWS of the views values [V, n_bins], angles [V] rad,
     times [V], spread evenly: each view sees the mask frame nearest its time (``mask_times`` [F],
-    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||."""
+    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||, each a(k) of the
+    sign given (nonnegative least squares on |a(k)|)."""
 
     @torch.no_grad()
-    def judge(masks: np.ndarray) -> tuple[float, np.ndarray]:
+    def judge(masks: np.ndarray, signs: np.ndarray) -> tuple[float, np.ndarray]:
         n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // masks[0].size))
         pick = np.linspace(0, values.shape[0] - 1, n).round().astype(int)
         nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
@@ -46,7 +47,8 @@ def sinogram_judge(
         per_object = project(images.transpose(0, 1).reshape(k * n, *images.shape[2:]), angles[pick].repeat(k),
                              geometry, extent)  # [K * n, n_bins]
         measured = values[pick].reshape(-1).double().numpy()
-        a, residual = nnls(per_object.reshape(k, -1).T.double().numpy(), measured)
-        return residual / max(float(np.linalg.norm(measured)), 1e-30), np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
+        a, residual = nnls(per_object.reshape(k, -1).T.double().numpy() * signs, measured)
+        a = np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
+        return residual / max(float(np.linalg.norm(measured)), 1e-30), signs * a
 
     return judge

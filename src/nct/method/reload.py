@@ -29,8 +29,9 @@ from nct.method.reconstruct import field_frames
 from nct.method.render import intensity
 from nct.method.stages import FieldStage
 
-# A field saved before fields could turn (session 40) or turn one part of several (41) renders as fitted
-UNTURNED = ("turn", "turned", "turned_object")
+# A field saved before fields could turn (session 40), turn one part of several (41) or hold a darker
+# nested object (42) renders as fitted
+UNTURNED = ("turn", "turned", "turned_object", "signs")
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,8 @@ fallback's levels, is judged, and the best explains the views; the judge also gi
 
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
-An object inside a dimmer one adds to it (`nest`): the container's mask is filled through it.
+An object inside another adds to it, negatively where darker (`nest`): the innermost container's
+mask is filled through it.
 """
 
 from __future__ import annotations
@@ -67,8 +68,9 @@ class Segmentation:
     misfit: float | None = None
 
 
-Judge = Callable[[np.ndarray], tuple[float, np.ndarray]]
-"""Rates a candidate segmentation: masks [F, K, H, W] (nested) -> (misfit, intensities [K]); lower is better."""
+Judge = Callable[[np.ndarray, np.ndarray], tuple[float, np.ndarray]]
+"""Rates a candidate segmentation: masks [F, K, H, W] (nested), signs [K] of their intensities (+1, or -1
+for an object darker than its container) -> (misfit, intensities [K]); lower is better."""
 
 
 def segment(
@@ -138,7 +140,7 @@ def _segmentation(route: str, smoothing: float, frames: np.ndarray, levels: np.n
     masks, intensities = nest(assign(frames, levels), levels)
     misfit = None
     if judge is not None:
-        misfit, intensities = judge(masks)
+        misfit, intensities = judge(masks, np.where(intensities < 0, -1.0, 1.0))
     return Segmentation(masks, intensities, route, float(levels[0]), smoothing, misfit)
 
 
@@ -149,22 +151,31 @@ def assign(frames: np.ndarray, levels: np.ndarray) -> np.ndarray:
 
 
 def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Objects inside a dimmer object add to it, as attenuation does: where most of a brighter
-    object's pixels lie in the holes of a dimmer one's mask, the dimmer mask is filled through
-    it and the brighter object's intensity becomes its level minus the container's. A static
-    body around a moving vessel then stays static, with no moving hole to follow the vessel.
-    masks [F, K, H, W] (one level each, as assigned), levels [K + 1] (background first) ->
-    masks, intensities [K] (above the container, or the background)."""
+    """Objects inside another add to it, as attenuation does: where most of an object's pixels lie in
+    the holes of another's mask, it nests in the innermost such container (the smallest filled mask),
+    whose mask is filled through it, and its intensity becomes its level minus the container's
+    (negative for a darker object, as a lung in a body). A static body around a moving vessel then
+    stays static, with no moving hole to follow the vessel; a nodule in a lung in a body nests in the
+    lung alone, and no pixel on the lung's rim holds both the body and the lung (a darker object keeps
+    only its pixels inside its container: outside, its level is the container's blurred rim). masks [F, K, H, W]
+    (one level each, as assigned), levels [K + 1] (background first) -> masks, intensities [K]
+    (above the container, or the background)."""
     masks = masks.copy()
     intensities = levels[1:] - levels[0]
-    order = np.argsort(levels[1:])
-    for n, j in enumerate(order):  # containers, dimmest first, so a chain nests level by level
-        filled = np.stack([binary_fill_holes(m) for m in masks[:, j]])
-        for k in order[n + 1:]:
-            brighter = levels[k + 1] > levels[j + 1]
-            if brighter and (filled & masks[:, k]).sum() > 0.5 * max(1, masks[:, k].sum()):
-                masks[:, j] |= masks[:, k] & filled
-                intensities[k] = levels[k + 1] - levels[j + 1]
+    filled = [np.stack([binary_fill_holes(m) for m in masks[:, j]]) for j in range(masks.shape[1])]
+    area = [f.sum() for f in filled]
+    containers = {}
+    for k in range(masks.shape[1]):
+        holders = [j for j in range(masks.shape[1]) if j != k and area[j] > area[k]
+                   and (filled[j] & masks[:, k]).sum() > 0.5 * max(1, masks[:, k].sum())]
+        if holders:
+            containers[k] = min(holders, key=lambda j: area[j])
+    for k in sorted(containers, key=lambda k: area[k]):  # innermost first, so a chain carries through
+        j = containers[k]
+        intensities[k] = levels[k + 1] - levels[j + 1]
+        if intensities[k] < 0:  # a darker level's pixels outside its container are the container's rim
+            masks[:, k] &= filled[j]
+        masks[:, j] |= masks[:, k] & filled[j]
     return masks, intensities
 
 
