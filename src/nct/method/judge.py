@@ -34,8 +34,8 @@ def sinogram_judge(
 ) -> Judge:
     """A `segment.Judge` over up to MAX_VIEWS of the views values [V, n_bins], angles [V] rad,
     times [V], spread evenly: each view sees the mask frame nearest its time (``mask_times`` [F],
-    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||, each a(k) of the
-    sign given (nonnegative least squares on |a(k)|)."""
+    same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||,
+    each a(k) of the sign given (nonnegative least squares on |a(k)|)."""
 
     @torch.no_grad()
     def judge(masks: np.ndarray, signs: np.ndarray) -> tuple[float, np.ndarray]:

@@ -156,10 +156,10 @@ def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     whose mask is filled through it, and its intensity becomes its level minus the container's
     (negative for a darker object, as a lung in a body). A static body around a moving vessel then
     stays static, with no moving hole to follow the vessel; a nodule in a lung in a body nests in the
-    lung alone, and no pixel on the lung's rim holds both the body and the lung (a darker object keeps
-    only its pixels inside its container: outside, its level is the container's blurred rim). masks [F, K, H, W]
-    (one level each, as assigned), levels [K + 1] (background first) -> masks, intensities [K]
-    (above the container, or the background)."""
+    lung alone, and no pixel on the lung's rim holds both the body and the lung (a darker object
+    keeps only its pixels inside its container: outside, its level is the container's blurred rim).
+    masks [F, K, H, W] (one level each, as assigned), levels [K + 1] (background first) -> masks,
+    intensities [K] (above the container, or the background)."""
     masks = masks.copy()
     intensities = levels[1:] - levels[0]
     filled = [np.stack([binary_fill_holes(m) for m in masks[:, j]]) for j in range(masks.shape[1])]
