@@ -219,10 +219,8 @@ def foreground_threshold(frames: np.ndarray, background: float, noise: float | N
 
 @dataclass(frozen=True)
 class MixtureClasses:
-    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its level (``means``: the
-    median of the pixels it claims; the mean of a broad class claiming a few pixels, a small bright
-    object's, can lie among another class's pixels), spread and pixel count [C]; ``background``: the
-    class with most pixels; ``lowest``: the foreground threshold."""
+    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its mean, spread and
+    pixel count [C]; ``background``: the class with most pixels; ``lowest``: the foreground threshold."""
 
     means: np.ndarray
     spread: np.ndarray
@@ -248,8 +246,8 @@ def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator
     with threadpool_limits(1):  # one-dimensional EM: BLAS threads on its tiny products cost 2-5x, results equal
         gmm.fit(sample.reshape(-1, 1).astype(np.float64))
     labels = predict_1d(gmm, flat)
+    means = gmm.means_[:, 0]
     count = np.bincount(labels, minlength=n_classes)
-    means = np.array([np.median(flat[labels == c]) if count[c] else gmm.means_[c, 0] for c in range(n_classes)])
     background = int(np.argmax(count))
     return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
                           foreground_threshold(frames, float(means[background])))
