@@ -31,7 +31,7 @@ from nct.method.stages import FieldStage
 
 # A field saved before fields could turn (session 40), turn one part of several (41) or hold a darker
 # nested object (42) renders as fitted
-UNTURNED = ("turn", "turned", "turned_object", "signs")
+LATER_STATE = ("turn", "turned", "turned_object", "signs")
 
 
 @dataclass(frozen=True)
@@ -115,7 +115,7 @@ def load_run(run_dir: Path) -> FittedRun:
     weights = {k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")}
     if "background" in weights:
         net.set_background(weights["background"])
-    weights = {**{k: v for k, v in net.state_dict().items() if k in UNTURNED}, **weights}
+    weights = {**{k: v for k, v in net.state_dict().items() if k in LATER_STATE}, **weights}
     missing = sorted(set(net.state_dict()) - set(weights))
     if missing:
         raise InputError(f"{run_dir} was written by an older nct (its checkpoint has no {', '.join(missing)}): "
