@@ -173,6 +173,26 @@ def test_one_dimensional_labels_are_those_of_the_mixture():
     np.testing.assert_array_equal(predict_1d(gmm, values, chunk=1000), expected)
 
 
+def test_a_broad_class_on_another_peak_stands_for_the_pixels_it_claims():
+    """A mixture class whose mean sits under a sharp class's peak (a small nodule's few pixels taken
+    by a broad class centred on the body's level) gets the median of the pixels it claims as its
+    level; classes that claim their own mean keep it."""
+    from sklearn.mixture import GaussianMixture
+
+    from nct.method.segment import claimed_levels, predict_1d
+
+    rng = np.random.default_rng(0)
+    values = np.concatenate([0.01 * rng.standard_normal(5000), 1 + 0.01 * rng.standard_normal(5000),
+                             2 + 0.01 * rng.standard_normal(50)])
+    gmm = GaussianMixture(3)
+    gmm.means_ = np.array([[0.0], [1.0], [1.01]])
+    gmm.covariances_ = np.array([0.01, 0.01, 0.5]).reshape(3, 1, 1) ** 2
+    gmm.weights_ = np.array([0.5, 0.49, 0.01])
+    labels = predict_1d(gmm, values)
+    assert predict_1d(gmm, np.array([1.01]))[0] == 1 and (labels[-50:] == 2).all()
+    np.testing.assert_allclose(claimed_levels(gmm, values, labels), [0.0, 1.0, 2.0], atol=0.01)
+
+
 def test_each_candidate_is_judged_once():
     """With a judge, Algorithm 1's pick and the other choices of classes are each judged once: no
     two judged segmentations hold the same masks."""

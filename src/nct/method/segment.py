@@ -8,7 +8,8 @@ its mean lies within SAME_LEVEL standard deviations (of the broader class) of an
 found or of the background (one level split in two by the mixture), or lies below the
 foreground threshold (background ripple or noise; see `foreground_threshold`). The paper keeps
 the classes with most pixels; on FBP frames of moving objects that picks streak and
-partial-volume classes.
+partial-volume classes. A class's level is its mean, unless a sharper class claims the pixels
+there: then the median of the pixels it claims (`claimed_levels`: a small object's few pixels).
 
 Where the mixture cannot separate K levels (a small or fast object seen in few pixels of the
 frames it was fitted on, a faint object beside a bright one, noise), the fallback route splits
@@ -246,11 +247,22 @@ def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator
     with threadpool_limits(1):  # one-dimensional EM: BLAS threads on its tiny products cost 2-5x, results equal
         gmm.fit(sample.reshape(-1, 1).astype(np.float64))
     labels = predict_1d(gmm, flat)
-    means = gmm.means_[:, 0]
     count = np.bincount(labels, minlength=n_classes)
     background = int(np.argmax(count))
-    return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
-                          foreground_threshold(frames, float(means[background])))
+    return MixtureClasses(claimed_levels(gmm, flat, labels), np.sqrt(gmm.covariances_.reshape(n_classes)), count,
+                          background, foreground_threshold(frames, float(gmm.means_[background, 0])))
+
+
+def claimed_levels(gmm: GaussianMixture, values: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Each class's level [C]: its mean, or, where a sharper class claims the pixels at its mean, the
+    median of the pixels it does claim. A small object's few pixels (a nodule in a body: 17 a frame)
+    can fall to a broad class whose mean sits on the body's peak; its level is then where its pixels
+    are (the nodule's), not the body's, which every choice of levels would otherwise lack."""
+    levels = gmm.means_[:, 0].copy()
+    for c in np.flatnonzero(predict_1d(gmm, levels) != np.arange(len(levels))):
+        if (labels == c).any():
+            levels[c] = float(np.median(values[labels == c]))
+    return levels
 
 
 def predict_1d(gmm: GaussianMixture, values: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
