@@ -15,7 +15,16 @@ import pytest
 
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import NoObjectError
-from nct.method.segment import OTSU_WORK, otsu_bins, otsu_levels, segment
+from nct.method.segment import (
+    OTSU_WORK,
+    MixtureClasses,
+    claimed_levels,
+    class_choices,
+    otsu_bins,
+    otsu_levels,
+    predict_1d,
+    segment,
+)
 from nct.run.metrics import dice
 from tests.conftest import LONGER, OPTIM, fit_composed, orbit, still
 
@@ -162,8 +171,6 @@ def test_one_dimensional_labels_are_those_of_the_mixture():
     chunked or not, on overlapping classes where the boundaries matter."""
     from sklearn.mixture import GaussianMixture
 
-    from nct.method.segment import predict_1d
-
     images, _ = two_object_frames(noise=0.2)
     values = images.reshape(-1)
     gmm = GaussianMixture(6, n_init=2, random_state=0).fit(values[::3, None].astype(np.float64))
@@ -175,11 +182,9 @@ def test_one_dimensional_labels_are_those_of_the_mixture():
 
 def test_a_broad_class_on_another_peak_stands_for_the_pixels_it_claims():
     """A mixture class whose mean sits under a sharp class's peak (a small nodule's few pixels taken
-    by a broad class centred on the body's level) gets the median of the pixels it claims as its
-    level; classes that claim their own mean keep it."""
+    by a broad class centred on the body's level) claims the median of its pixels as its level, and
+    the judge's choices offer both; classes that claim their own mean keep it."""
     from sklearn.mixture import GaussianMixture
-
-    from nct.method.segment import claimed_levels, predict_1d
 
     rng = np.random.default_rng(0)
     values = np.concatenate([0.01 * rng.standard_normal(5000), 1 + 0.01 * rng.standard_normal(5000),
@@ -190,7 +195,10 @@ def test_a_broad_class_on_another_peak_stands_for_the_pixels_it_claims():
     gmm.weights_ = np.array([0.5, 0.49, 0.01])
     labels = predict_1d(gmm, values)
     assert predict_1d(gmm, np.array([1.01]))[0] == 1 and (labels[-50:] == 2).all()
-    np.testing.assert_allclose(claimed_levels(gmm, values, labels), [0.0, 1.0, 2.0], atol=0.01)
+    claimed = claimed_levels(gmm, values, labels)
+    np.testing.assert_allclose(claimed, [0.0, 1.0, 2.0], atol=0.01)
+    classes = MixtureClasses(gmm.means_[:, 0], np.array([0.01, 0.01, 0.5]), np.bincount(labels), 0, 0.5, claimed)
+    assert sorted(c[1] for c in class_choices(classes, 1)) == [1.0, 1.01, claimed[2]]
 
 
 def test_each_candidate_is_judged_once():

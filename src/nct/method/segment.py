@@ -8,8 +8,7 @@ its mean lies within SAME_LEVEL standard deviations (of the broader class) of an
 found or of the background (one level split in two by the mixture), or lies below the
 foreground threshold (background ripple or noise; see `foreground_threshold`). The paper keeps
 the classes with most pixels; on FBP frames of moving objects that picks streak and
-partial-volume classes. A class's level is its mean, unless a sharper class claims the pixels
-there: then the median of the pixels it claims (`claimed_levels`: a small object's few pixels).
+partial-volume classes.
 
 Where the mixture cannot separate K levels (a small or fast object seen in few pixels of the
 frames it was fitted on, a faint object beside a bright one, noise), the fallback route splits
@@ -21,7 +20,9 @@ background at any scale does segmentation fail, with `NoObjectError`.
 
 With a judge (levels.py: how well the masks explain the sinogram), the rule above only adds one
 candidate: every choice of K of the mixture's classes above the foreground threshold, and the
-fallback's levels, is judged, and the best explains the views; the judge also gives a(k).
+fallback's levels, is judged, and the best explains the views; the judge also gives a(k). A class
+offers its mean as its level and, where a sharper class claims the pixels there, the median of
+the pixels it claims (`claimed_levels`: a small object's few pixels in a broad class).
 
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
@@ -34,7 +35,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from itertools import combinations, pairwise
+from itertools import combinations, pairwise, product
 
 import numpy as np
 from scipy.ndimage import binary_fill_holes, gaussian_filter
@@ -220,14 +221,16 @@ def foreground_threshold(frames: np.ndarray, background: float, noise: float | N
 
 @dataclass(frozen=True)
 class MixtureClasses:
-    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its mean, spread and
-    pixel count [C]; ``background``: the class with most pixels; ``lowest``: the foreground threshold."""
+    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its mean, spread, pixel
+    count and claimed level (`claimed_levels`) [C]; ``background``: the class with most pixels;
+    ``lowest``: the foreground threshold."""
 
     means: np.ndarray
     spread: np.ndarray
     count: np.ndarray
     background: int
     lowest: float
+    claimed: np.ndarray
 
     @property
     def score(self) -> np.ndarray:
@@ -249,15 +252,16 @@ def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator
     labels = predict_1d(gmm, flat)
     count = np.bincount(labels, minlength=n_classes)
     background = int(np.argmax(count))
-    return MixtureClasses(claimed_levels(gmm, flat, labels), np.sqrt(gmm.covariances_.reshape(n_classes)), count,
-                          background, foreground_threshold(frames, float(gmm.means_[background, 0])))
+    means = gmm.means_[:, 0]
+    return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
+                          foreground_threshold(frames, float(means[background])), claimed_levels(gmm, flat, labels))
 
 
 def claimed_levels(gmm: GaussianMixture, values: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Each class's level [C]: its mean, or, where a sharper class claims the pixels at its mean, the
     median of the pixels it does claim. A small object's few pixels (a nodule in a body: 17 a frame)
-    can fall to a broad class whose mean sits on the body's peak; its level is then where its pixels
-    are (the nodule's), not the body's, which every choice of levels would otherwise lack."""
+    can fall to a broad class whose mean sits on the body's peak; where its pixels are is the
+    nodule's level, which no choice of the classes' means holds."""
     levels = gmm.means_[:, 0].copy()
     for c in np.flatnonzero(predict_1d(gmm, levels) != np.arange(len(levels))):
         if (labels == c).any():
@@ -294,9 +298,13 @@ def algorithm1_levels(classes: MixtureClasses, n_objects: int) -> np.ndarray | N
 
 
 def class_choices(classes: MixtureClasses, n_objects: int) -> list[np.ndarray]:
-    """Every choice of K classes above the foreground threshold as levels [K + 1] (background first)."""
-    above = [c for c in range(len(classes.means)) if c != classes.background and classes.means[c] >= classes.lowest]
-    return [classes.means[[classes.background, *chosen]] for chosen in combinations(above, n_objects)]
+    """Every choice of K classes' levels above the foreground threshold as levels [K + 1] (background
+    first); a class whose claimed level differs from its mean offers both."""
+    options = {c: [lv for lv in dict.fromkeys([classes.means[c], classes.claimed[c]]) if lv >= classes.lowest]
+               for c in range(len(classes.means)) if c != classes.background}
+    above = [c for c in options if options[c]]
+    return [np.asarray([classes.means[classes.background], *levels])
+            for chosen in combinations(above, n_objects) for levels in product(*(options[c] for c in chosen))]
 
 
 def otsu_levels(frames: np.ndarray, n_objects: int, noise: float | None = None) -> np.ndarray:
