@@ -10,6 +10,7 @@ Levels and a(k) are in the method's units: times the run's ``init.intensity_unit
 (metrics.json) for the data's.
 
     python benchmarks/diagnostics/init_candidates.py outputs/benchmarks/gen_seed1/scenes/scene011.npz --n-objects 2
+    python benchmarks/diagnostics/init_candidates.py --override experiment=nodule --override seed=3
 """
 
 from __future__ import annotations
@@ -38,12 +39,14 @@ class _Caught(Exception):
         self.args_, self.kwargs = args, kwargs
 
 
-def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tuple:
+def segmentation_inputs(path: Path | None, n_objects: int | None, overrides: list[str]) -> tuple:
     """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and
-    judge, and the number of starts InitFit tries (``init.starts``)."""
+    judge, and the number of starts InitFit tries (``init.starts``). ``path`` None: the overrides'
+    scene (an experiment); ``n_objects`` None: the config's K."""
+    scene = [] if path is None else ["data=file", f"data.path={path}"]
+    k = [] if n_objects is None else [f"data.n_objects={n_objects}"]
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        cfg = compose(config_name="config",
-                      overrides=["data=file", f"data.path={path}", f"data.n_objects={n_objects}", *overrides])
+        cfg = compose(config_name="config", overrides=[*scene, *k, *overrides])
     conf = validate(cfg)
     acq = acquire(conf, np.random.default_rng(conf.seed))
 
@@ -64,8 +67,9 @@ def segmentation_inputs(path: Path, n_objects: int, overrides: list[str]) -> tup
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("path", type=Path, help="a sinogram file (.npz, the documented format)")
-    parser.add_argument("--n-objects", type=int, default=1, help="data.n_objects (K)")
+    parser.add_argument("path", type=Path, nargs="?", help="a sinogram file (.npz, the documented format; "
+                        "none: the scene the overrides name, e.g. --override experiment=nodule)")
+    parser.add_argument("--n-objects", type=int, help="data.n_objects (K; default: the config's)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="an nct override")
     args = parser.parse_args()
     try:
@@ -74,8 +78,9 @@ def main() -> None:
     except (InputError, MethodError) as err:  # a bad file or value, or no object: one line, as nct says it
         parser.exit(2, f"init_candidates: error: {err}\n")
     classes = seg.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
-    print(f"mixture classes (method units): means {np.round(classes.means, 3)}, spread {np.round(classes.spread, 3)}, "
-          f"pixels {classes.count}, background class {classes.background}, foreground from {classes.lowest:.3f}")
+    print(f"mixture classes (method units): means {np.round(classes.means, 3)}, claimed levels "
+          f"{np.round(classes.claimed, 3)}, spread {np.round(classes.spread, 3)}, pixels {classes.count}, "
+          f"background class {classes.background}, foreground from {classes.lowest:.3f}")
     picked = seg.algorithm1_levels(classes, k)
     print("Algorithm 1's rule:", "fewer than K levels" if picked is None else np.round(picked, 3))
     ranked = seg.segmentations(frames, k, rng, kappa, share, route, judge)

@@ -178,6 +178,21 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
     assert sorted(init["levels"]) == pytest.approx([0.6, 1.5], rel=0.1)
 
 
+def test_moving_region_sees_the_frames_the_background_starts_from(tmp_path):
+    """benchmarks/diagnostics/moving_region.py stops a background=image run where the background starts
+    and returns its FBP frames and moving_share; a run without a background is named, not run."""
+    from nct.errors import InputError
+
+    objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5)]
+    path = F.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
+    overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none"]
+    region = load("diagnostics/moving_region")
+    frames, share = region.region_inputs(path, 1, [*overrides, "background=image", "background.moving_share=0.2"])
+    assert frames.ndim == 3 and frames.shape[1:] == (48, 48) and share == 0.2
+    with pytest.raises(InputError, match="background=image"):
+        region.region_inputs(path, 1, overrides)
+
+
 def _disc(radius: float, level: float, size: int = 32) -> np.ndarray:
     y, x = np.mgrid[:size, :size] - (size - 1) / 2
     return np.where(np.hypot(x, y) <= radius, level, 0.0)[None].astype(np.float32)
