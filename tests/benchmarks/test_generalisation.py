@@ -193,6 +193,15 @@ def test_moving_region_sees_the_frames_the_background_starts_from(tmp_path):
         region.region_inputs(path, 1, overrides)
 
 
+def test_level_choices_compares_the_starts_with_and_without_claimed_levels(tmp_path):
+    """benchmarks/diagnostics/level_choices.py counts the judged choices both ways; two still discs apart
+    give every class its own mean, so both ways offer the same choices and keep the same starts."""
+    objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]
+    path = F.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
+    choices = load("diagnostics/level_choices").compare(path, 2, ["image.size=48", "logger=none"])
+    assert choices.with_claimed >= choices.means_only >= 1 and choices.same_starts
+
+
 def _disc(radius: float, level: float, size: int = 32) -> np.ndarray:
     y, x = np.mgrid[:size, :size] - (size - 1) / 2
     return np.where(np.hypot(x, y) <= radius, level, 0.0)[None].astype(np.float32)
