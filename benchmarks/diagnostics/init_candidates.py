@@ -27,42 +27,51 @@ import nct.method.initialise
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.method import segment as seg
-from nct.run.config import validate
+from nct.run.config import NCTConf, validate
 from nct.run.pipeline import acquire, reconstruct_all
 
 
 class _Caught(Exception):
-    """Carries segment()'s arguments out of reconstruct()."""
+    """Carries a hooked call's arguments out of reconstruct()."""
 
     def __init__(self, args: tuple, kwargs: dict) -> None:
-        super().__init__("segmentation reached")
+        super().__init__("hook reached")
         self.args_, self.kwargs = args, kwargs
 
 
-def segmentation_inputs(path: Path | None, n_objects: int | None, overrides: list[str]) -> tuple:
-    """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and
-    judge, and the number of starts InitFit tries (``init.starts``). ``path`` None: the overrides'
-    scene (an experiment); ``n_objects`` None: the config's K."""
+def run_config(path: Path | None, n_objects: int | None, overrides: list[str]) -> NCTConf:
+    """The run's validated config: the sinogram file ``path`` (None: the overrides' scene, e.g. an
+    experiment) with K = ``n_objects`` (None: the config's), and ``overrides``."""
     scene = [] if path is None else ["data=file", f"data.path={path}"]
     k = [] if n_objects is None else [f"data.n_objects={n_objects}"]
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        cfg = compose(config_name="config", overrides=[*scene, *k, *overrides])
-    conf = validate(cfg)
-    acq = acquire(conf, np.random.default_rng(conf.seed))
+        return validate(compose(config_name="config", overrides=[*scene, *k, *overrides]))
+
+
+def run_until(conf: NCTConf, hook: str) -> tuple:
+    """Run ``conf`` until it calls ``nct.method.initialise.<hook>``: that call's positional arguments."""
 
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
-    real = nct.method.initialise.segmentations
-    nct.method.initialise.segmentations = catch
+    acq = acquire(conf, np.random.default_rng(conf.seed))
+    real = getattr(nct.method.initialise, hook)
+    setattr(nct.method.initialise, hook, catch)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             reconstruct_all(conf, acq, Path(tmp))
     except _Caught as caught:
-        frames, k, rng, kappa, share, route, judge = caught.args_
+        return caught.args_
     finally:
-        nct.method.initialise.segmentations = real
-    return frames, k, rng, kappa, share, route, judge, conf.init.starts
+        setattr(nct.method.initialise, hook, real)
+    raise RuntimeError(f"the run ended without calling {hook}")
+
+
+def segmentation_inputs(path: Path | None, n_objects: int | None, overrides: list[str]) -> tuple:
+    """The run's FBP init frames [F, H, W] (method units), K, its generator, kappa, share, route and
+    judge, and the number of starts InitFit tries (``init.starts``); arguments as `run_config`'s."""
+    conf = run_config(path, n_objects, overrides)
+    return *run_until(conf, "segmentations"), conf.init.starts
 
 
 def main() -> None:

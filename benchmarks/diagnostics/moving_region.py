@@ -16,50 +16,28 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_module
 from scipy.ndimage import label
 from skimage.feature import peak_local_max
 
-import nct.method.initialise
-from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.method import background as bg
-from nct.run.config import validate
-from nct.run.pipeline import acquire, reconstruct_all
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from init_candidates import _Caught  # noqa: E402
+from init_candidates import run_config, run_until  # noqa: E402
 
 PEAK_SPACING_PX = 5  # local peaks of the spread at least this far apart: one or two per moving edge
 
 
 def region_inputs(path: Path | None, n_objects: int | None, overrides: list[str]) -> tuple[np.ndarray, float]:
-    """The run's FBP init frames [F, H, W] (method units) and its ``background.moving_share``."""
-    scene = [] if path is None else ["data=file", f"data.path={path}"]
-    k = [] if n_objects is None else [f"data.n_objects={n_objects}"]
-    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        cfg = compose(config_name="config", overrides=[*scene, *k, *overrides])
-    conf = validate(cfg)
+    """The run's FBP init frames [F, H, W] (method units) and its ``background.moving_share``
+    (arguments as init_candidates.run_config's)."""
+    conf = run_config(path, n_objects, overrides)
     if conf.background.name != "image":
         raise InputError("the run has no background image: add --override background=image")
-    acq = acquire(conf, np.random.default_rng(conf.seed))
-
-    def catch(*args, **kwargs):
-        raise _Caught(args, kwargs)
-
-    real = nct.method.initialise.static_start
-    nct.method.initialise.static_start = catch
-    try:
-        with tempfile.TemporaryDirectory() as tmp:
-            reconstruct_all(conf, acq, Path(tmp))
-    except _Caught as caught:
-        frames, share = caught.args_
-    finally:
-        nct.method.initialise.static_start = real
+    frames, share = run_until(conf, "static_start")
     return frames, share
 
 

@@ -250,9 +250,9 @@ def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator
     with threadpool_limits(1):  # one-dimensional EM: BLAS threads on its tiny products cost 2-5x, results equal
         gmm.fit(sample.reshape(-1, 1).astype(np.float64))
     labels = predict_1d(gmm, flat)
+    means = gmm.means_[:, 0]
     count = np.bincount(labels, minlength=n_classes)
     background = int(np.argmax(count))
-    means = gmm.means_[:, 0]
     return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
                           foreground_threshold(frames, float(means[background])), claimed_levels(gmm, flat, labels))
 
