@@ -53,7 +53,7 @@ def main() -> None:
     except (InputError, MethodError) as err:
         parser.exit(2, f"moving_region: error: {err}\n")
     spread = frames.std(axis=0)
-    floor = max(bg.NOISE_FACTOR * float(np.median(spread)), bg.PEAK_SHARE * float(np.abs(frames).max()))
+    floor = bg.still_floor(frames, spread)
     top = float(np.percentile(spread, bg.PERCENTILE))
     region = bg.moving_region(frames, share)
     print(f"spread over time: 99.9th percentile {top:.3f}, floor {floor:.3f}; threshold "

@@ -45,9 +45,14 @@ def moving_region(frames: np.ndarray, share: float) -> np.ndarray:
     PERCENTILE-th percentile (and the still scene's floors), widened by WIDEN_PX and with holes
     filled (an object's still middle moves with it): [H, W] bool, empty for a still scene."""
     spread = frames.std(axis=0)
-    floor = max(NOISE_FACTOR * float(np.median(spread)), PEAK_SHARE * float(np.abs(frames).max()))
-    region = spread > max(share * np.percentile(spread, PERCENTILE), floor)
+    region = spread > max(share * np.percentile(spread, PERCENTILE), still_floor(frames, spread))
     return binary_fill_holes(binary_dilation(region, iterations=WIDEN_PX))
+
+
+def still_floor(frames: np.ndarray, spread: np.ndarray) -> float:
+    """The spread over time [H, W] of FBP ``frames`` [F, H, W] below which a pixel is still, whatever
+    ``moving_share``: NOISE_FACTOR times the median pixel's and PEAK_SHARE of the frames' peak."""
+    return max(NOISE_FACTOR * float(np.median(spread)), PEAK_SHARE * float(np.abs(frames).max()))
 
 
 def static_start(frames: np.ndarray, share: float) -> StaticStart:

@@ -264,8 +264,9 @@ def claimed_levels(gmm: GaussianMixture, values: np.ndarray, labels: np.ndarray)
     nodule's level, which no choice of the classes' means holds."""
     levels = gmm.means_[:, 0].copy()
     for c in np.flatnonzero(predict_1d(gmm, levels) != np.arange(len(levels))):
-        if (labels == c).any():
-            levels[c] = float(np.median(values[labels == c]))
+        claimed = values[labels == c]
+        if claimed.size:
+            levels[c] = float(np.median(claimed))
     return levels
 
 
