@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 from hydra import compose, initialize_config_module
+from hydra.errors import HydraException
+from omegaconf.errors import OmegaConfBaseException
 
 import nct.method.initialise
 from nct.cli.main import CONFIG_MODULE
@@ -45,7 +47,11 @@ def run_config(path: Path | None, n_objects: int | None, overrides: list[str]) -
     scene = [] if path is None else ["data=file", f"data.path={path}"]
     k = [] if n_objects is None else [f"data.n_objects={n_objects}"]
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        return validate(compose(config_name="config", overrides=[*scene, *k, *overrides]))
+        try:
+            cfg = compose(config_name="config", overrides=[*scene, *k, *overrides])
+        except (HydraException, OmegaConfBaseException) as err:  # an unknown group, option or key
+            raise InputError(f"overrides {overrides}: {str(err).splitlines()[0]}") from err
+    return validate(cfg)
 
 
 def run_until(conf: NCTConf, hook: str) -> tuple:

@@ -63,7 +63,11 @@ def main() -> None:
     parser.add_argument("--only", type=lambda text: text.split(","), metavar="SCENE,...", help="these scenes only")
     parser.add_argument("--out", type=Path, required=True, help="where the scene files are written")
     args = parser.parse_args()
-    scenes = [s for s in gen.draw_scenes(args.seed, args.scenes) if not args.only or s.name in args.only]
+    drawn = gen.draw_scenes(args.seed, args.scenes)
+    unknown = sorted(set(args.only or ()) - {s.name for s in drawn})
+    if unknown:
+        parser.exit(2, f"level_choices: error: --only: not among the {len(drawn)} scenes drawn: {', '.join(unknown)}\n")
+    scenes = [s for s in drawn if not args.only or s.name in args.only]
     changed = []
     for scene in scenes:
         path = write_scene(scene, args.out / "scenes" / f"{scene.name}.npz", gen.FULL_SIZE, gen.FULL_FRAMES, args.seed)

@@ -180,7 +180,8 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
 
 def test_moving_region_sees_the_frames_the_background_starts_from(tmp_path):
     """benchmarks/diagnostics/moving_region.py stops a background=image run where the background starts
-    and returns its FBP frames and moving_share; a run without a background is named, not run."""
+    and returns its FBP frames and moving_share; a run without a background, or a bad override, is named,
+    not run."""
     from nct.errors import InputError
 
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5)]
@@ -191,6 +192,8 @@ def test_moving_region_sees_the_frames_the_background_starts_from(tmp_path):
     assert frames.ndim == 3 and frames.shape[1:] == (48, 48) and share == 0.2
     with pytest.raises(InputError, match="background=image"):
         region.region_inputs(path, 1, overrides)
+    with pytest.raises(InputError, match="image.sizee"):  # a misspelt key: named, no traceback
+        region.region_inputs(path, 1, ["image.sizee=48"])
 
 
 def test_level_choices_compares_the_starts_with_and_without_claimed_levels(tmp_path):
