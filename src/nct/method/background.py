@@ -30,6 +30,13 @@ PERCENTILE = 99.9  # moving_share is a share of the temporal std at this percent
 # over time is also this many times the median pixel's (noise) and this share of the frames' peak.
 NOISE_FACTOR = 3.0
 PEAK_SHARE = 0.02
+# A slow mover's middle never changes: only its leading and trailing edges do (holes000: two slivers of
+# 13 and 8 px). Its middle stays at its own level, so the region also takes what lies, on average over
+# the scan, above the level between an edge's brightest and what it shows when uncovered. A body is a large share of the
+# field (the textured scenes' 20 % and more), a mover's middle a small one (holes000's 1.6 %): a still
+# part larger than MIDDLE_SHARE of the field is a body, not a middle, and stays out.
+MIDDLE_SHARE = 0.1
+EDGE_PERCENTILE = 90  # an edge's brightest over time: this percentile of its pixels' maxima (not one pixel's)
 
 
 @dataclass(frozen=True)
@@ -42,11 +49,32 @@ class StaticStart:
 
 def moving_region(frames: np.ndarray, share: float) -> np.ndarray:
     """Pixels of FBP ``frames`` [F, H, W] whose std over time exceeds ``share`` of its
-    PERCENTILE-th percentile (and the still scene's floors), widened by WIDEN_PX and with holes
-    filled (an object's still middle moves with it): [H, W] bool, empty for a still scene."""
+    PERCENTILE-th percentile (and the still scene's floors), with each piece's still middle
+    (`still_middles`), widened by WIDEN_PX and with holes filled (an object's still middle moves
+    with it): [H, W] bool, empty for a still scene."""
     spread = frames.std(axis=0)
-    region = spread > max(share * np.percentile(spread, PERCENTILE), still_floor(frames, spread))
-    return binary_fill_holes(binary_dilation(region, iterations=WIDEN_PX))
+    edges = spread > max(share * np.percentile(spread, PERCENTILE), still_floor(frames, spread))
+    return binary_fill_holes(binary_dilation(edges | still_middles(frames, edges), iterations=WIDEN_PX))
+
+
+def still_middles(frames: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The still middles [H, W] bool of the movers whose moving ``edges`` [H, W] bool FBP ``frames``
+    [F, H, W] show: for each piece of the edges, the connected parts it touches whose mean over time
+    is above the piece's level (halfway between its brightest, EDGE_PERCENTILE of its maxima over
+    time, and the median of its minima, what it shows uncovered), each no larger than MIDDLE_SHARE
+    of the field. The mean, not the minimum: a middle's rim is uncovered in a frame or two."""
+    lowest, highest, mean = frames.min(axis=0), frames.max(axis=0), frames.mean(axis=0)
+    middles = np.zeros(edges.shape, bool)
+    pieces, n = label(edges)
+    for piece in range(1, n + 1):
+        inside = pieces == piece
+        level = 0.5 * (np.percentile(highest[inside], EDGE_PERCENTILE) + np.median(lowest[inside]))
+        parts, _ = label(mean >= level)
+        for part in np.unique(parts[binary_dilation(inside)]):
+            candidate = parts == part
+            if part and candidate.sum() <= MIDDLE_SHARE * candidate.size:
+                middles |= candidate
+    return middles
 
 
 def still_floor(frames: np.ndarray, spread: np.ndarray) -> float:
