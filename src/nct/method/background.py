@@ -34,7 +34,9 @@ PEAK_SHARE = 0.02
 # 13 and 8 px). Its middle stays at its own level, so the region also takes what lies, on average over
 # the scan, above the level between an edge's brightest and what it shows when uncovered. A body is a large share of the
 # field (the textured scenes' 20 % and more), a mover's middle a small one (holes000's 1.6 %): a still
-# part larger than MIDDLE_SHARE of the field is a body, not a middle, and stays out.
+# part larger than MIDDLE_SHARE of the field is a body, not a middle, and stays out. No benchmark scene
+# has such a part (their regions are the same without the bound); a still block as bright as a mover
+# and touching it has (tests/method/test_background.py).
 MIDDLE_SHARE = 0.1
 EDGE_PERCENTILE = 90  # an edge's brightest over time: this percentile of its pixels' maxima (not one pixel's)
 
