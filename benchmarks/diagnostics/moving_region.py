@@ -1,8 +1,8 @@
 """Where ``background=image`` saw motion: the FBP frames' spread over time, the moving region's
 threshold (``background.moving_share`` of its 99.9th percentile, above the still scene's floor), the
-region's connected pieces and the spread's local peaks outside it. A mover the region misses, or
-holds only a sliver of (its moving edge: a piece far smaller than the object), is held still by the
-background (benchmarks/results/background: holes000's slower orbit).
+region's connected pieces (each with the still middle it touches: `background.still_middles`) and
+the spread's local peaks outside it. A mover the region misses, or holds only a sliver of, is held
+still by the background (benchmarks/results/background: holes000's slower orbit before session 44).
 
 The frames are those of the run itself: ``nct.method.reconstruct.reconstruct`` is called and
 stopped where it hands them to the background's start (init_candidates.py does the same for the

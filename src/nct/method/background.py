@@ -30,13 +30,13 @@ PERCENTILE = 99.9  # moving_share is a share of the temporal std at this percent
 # over time is also this many times the median pixel's (noise) and this share of the frames' peak.
 NOISE_FACTOR = 3.0
 PEAK_SHARE = 0.02
-# A slow mover's middle never changes: only its leading and trailing edges do (holes000: two slivers of
-# 13 and 8 px). Its middle stays at its own level, so the region also takes what lies, on average over
-# the scan, above the level between an edge's brightest and what it shows when uncovered. A body is a large share of the
-# field (the textured scenes' 20 % and more), a mover's middle a small one (holes000's 1.6 %): a still
-# part larger than MIDDLE_SHARE of the field is a body, not a middle, and stays out. No benchmark scene
-# has such a part (their regions are the same without the bound); a still block as bright as a mover
-# and touching it has (tests/method/test_background.py).
+# A slow mover's middle never changes: only its leading and trailing edges do (holes000: two slivers
+# of 13 and 8 px). Its middle stays at its own level, so the region also takes what lies, on average
+# over the scan, above the level between an edge's brightest and what it shows when uncovered. A body
+# is a large share of the field (the textured scenes' 20 % and more), a mover's middle a small one
+# (holes000's 1.6 %): a still part larger than MIDDLE_SHARE of the field is a body, not a middle, and
+# stays out. No benchmark scene has such a part (their regions are the same without the bound); a
+# still block as bright as a mover and touching it has (tests/method/test_background.py).
 MIDDLE_SHARE = 0.1
 EDGE_PERCENTILE = 90  # an edge's brightest over time: this percentile of its pixels' maxima (not one pixel's)
 
@@ -74,7 +74,7 @@ def still_middles(frames: np.ndarray, edges: np.ndarray) -> np.ndarray:
         parts, _ = label(mean >= level)
         for part in np.unique(parts[binary_dilation(inside)]):
             candidate = parts == part
-            if part and candidate.sum() <= MIDDLE_SHARE * candidate.size:
+            if part != 0 and candidate.sum() <= MIDDLE_SHARE * candidate.size:
                 middles |= candidate
     return middles
 
