@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 import torch
 
+import nct.method.judge as judge_module
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.method.judge import sinogram_judge
 from nct.method.segment import segment
-from nct.physics.projector import fbp_frames
+from nct.physics.projector import fbp_frames, project
 from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
 from nct.scenes.simulate import simulate
 
@@ -53,6 +54,23 @@ def test_judge_recovers_intensities_from_the_true_masks():
     assert misfit < 0.08  # measured 0.063: the binary masks' staircase edges
     shifted, _ = judge(np.roll(masks, 3, axis=-1), np.ones(2))
     assert shifted > 3 * misfit
+
+
+def test_an_object_mask_seen_before_is_not_projected_again(monkeypatch):
+    """Candidates share object masks: the judge projects each once, and its answer for a candidate is
+    the one a fresh judge gives."""
+    sino, judge = acquire([disc(-0.2, 0.1, 0.14, 0.6), disc(0.25, 0.0, 0.1, 1.4, deg=90.0)])
+    x, y = GRID.xy()
+    still = np.broadcast_to((x + 0.2) ** 2 + (y - 0.1) ** 2 < 0.14**2, sino.truth.frames.shape)
+    moving = sino.truth.frames > 0.7
+    first, second = np.stack([still, moving], axis=1), np.stack([still, np.roll(moving, 2, axis=-1)], axis=1)
+    calls = []
+    monkeypatch.setattr(judge_module, "project", lambda *a, **k: calls.append(1) or project(*a, **k))
+    judge(first, np.ones(2))
+    cached = judge(second, np.ones(2))
+    assert len(calls) == 3  # still, moving, the shifted moving disc: the still mask once
+    fresh = acquire([disc(-0.2, 0.1, 0.14, 0.6), disc(0.25, 0.0, 0.1, 1.4, deg=90.0)])[1](second, np.ones(2))
+    assert cached[0] == fresh[0] and np.array_equal(cached[1], fresh[1])
 
 
 def test_judge_gives_a_darker_nested_object_its_negative_intensity():

@@ -11,6 +11,8 @@ nonnegative least-squares fit over the fitted views, and its residual says how w
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import torch
 from scipy.optimize import nnls
@@ -35,19 +37,25 @@ def sinogram_judge(
     """A `segment.Judge` over up to MAX_VIEWS of the views values [V, n_bins], angles [V] rad,
     times [V], spread evenly: each view sees the mask frame nearest its time (``mask_times`` [F],
     same units). Its misfit is the relative residual ||sum_k a(k) P(mask_k) - views|| / ||views||,
-    each a(k) of the sign given (nonnegative least squares on |a(k)|)."""
+    each a(k) of the sign given (nonnegative least squares on |a(k)|). An object's mask often
+    recurs from one candidate to the next (half of them with K = 4 or more): each is projected once."""
+    projected: dict[tuple[int, bytes], torch.Tensor] = {}  # (views, mask frames' digest) -> [views * n_bins]
 
     @torch.no_grad()
     def judge(masks: np.ndarray, signs: np.ndarray) -> tuple[float, np.ndarray]:
         n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // masks[0].size))
         pick = np.linspace(0, values.shape[0] - 1, n).round().astype(int)
         nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
-        images = torch.from_numpy(masks).float()[nearest]  # [n, K, H, W]
-        k = images.shape[1]
-        per_object = project(images.transpose(0, 1).reshape(k * n, *images.shape[2:]), angles[pick].repeat(k),
-                             geometry, extent)  # [K * n, n_bins]
+        columns = []
+        for k in range(masks.shape[1]):
+            frames = np.ascontiguousarray(masks[:, k])  # [F, H, W]
+            key = (n, hashlib.blake2b(frames.view(np.uint8)).digest())
+            if key not in projected:
+                images = torch.from_numpy(frames).float()[nearest]  # [n, H, W]
+                projected[key] = project(images, angles[pick], geometry, extent).reshape(-1).double()
+            columns.append(projected[key])
         measured = values[pick].reshape(-1).double().numpy()
-        a, residual = nnls(per_object.reshape(k, -1).T.double().numpy() * signs, measured)
+        a, residual = nnls(torch.stack(columns, dim=1).numpy() * signs, measured)
         a = np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
         return residual / max(float(np.linalg.norm(measured)), 1e-30), signs * a
 
