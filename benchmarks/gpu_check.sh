@@ -11,6 +11,7 @@
 # Results: benchmarks/results/gpu/README.md.
 out=${1:?usage: bash benchmarks/gpu_check.sh OUT [DEADLINE_S [BENCH [RUN_S]]]}; deadline=${2:-555}
 bench=${3:-generalisation}; run_s=${4:-330}; t0=$(date +%s)
+case $bench in generalisation|textured) ;; *) echo "gpu_check: BENCH must be generalisation or textured, not $bench" >&2; exit 2 ;; esac
 mkdir -p "$out" "$out/default"
 export PYTHONUNBUFFERED=1 MPLBACKEND=Agg
 python3 -c "import torch,lightning,hydra,numpy;print('torch',torch.__version__,'lightning',lightning.__version__,'hydra',hydra.__version__,'numpy',numpy.__version__,torch.cuda.get_device_name())" > "$out/env.txt" 2>&1
@@ -30,7 +31,6 @@ case $bench in
     --threads 1 --override trainer=gpu --out "$out/generalisation" > "$out/generalisation.log" 2>&1 ;;
   textured) timeout $left python3 benchmarks/textured.py --scenes 3 --size 128 --jobs 18 --threads 1 \
     --timeout "$run_s" --override trainer=gpu --out "$out/textured" > "$out/textured.log" 2>&1 ;;
-  *) echo "BENCH: generalisation or textured, not $bench" >&2; exit 2 ;;
 esac
 echo "$bench rc $? after $(( $(date +%s) - t0 )) s" >> "$out/default.txt"
 cat "$out/default.txt"; tail -3 "$out/pytest.txt"

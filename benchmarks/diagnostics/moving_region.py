@@ -57,7 +57,7 @@ def main() -> None:
     top = float(np.percentile(spread, bg.PERCENTILE))
     region = bg.moving_region(frames, share)
     print(f"spread over time: 99.9th percentile {top:.3f}, floor {floor:.3f}; threshold "
-          f"{max(share * top, floor):.3f} (moving_share {share}); region {int(region.sum())} px")
+          f"{bg.edge_threshold(frames, spread, share):.3f} (moving_share {share}); region {int(region.sum())} px")
     pieces, n = label(region)
     for piece in range(1, n + 1):
         rows, cols = np.nonzero(pieces == piece)

@@ -55,8 +55,14 @@ def moving_region(frames: np.ndarray, share: float) -> np.ndarray:
     (`still_middles`), widened by WIDEN_PX and with holes filled (an object's still middle moves
     with it): [H, W] bool, empty for a still scene."""
     spread = frames.std(axis=0)
-    edges = spread > max(share * np.percentile(spread, PERCENTILE), still_floor(frames, spread))
+    edges = spread > edge_threshold(frames, spread, share)
     return binary_fill_holes(binary_dilation(edges | still_middles(frames, edges), iterations=WIDEN_PX))
+
+
+def edge_threshold(frames: np.ndarray, spread: np.ndarray, share: float) -> float:
+    """The spread over time [H, W] of FBP ``frames`` [F, H, W] above which a pixel moves: ``share`` of its
+    PERCENTILE-th percentile, and at least `still_floor`."""
+    return max(share * float(np.percentile(spread, PERCENTILE)), still_floor(frames, spread))
 
 
 def still_middles(frames: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -73,8 +79,10 @@ def still_middles(frames: np.ndarray, edges: np.ndarray) -> np.ndarray:
         level = 0.5 * (np.percentile(highest[inside], EDGE_PERCENTILE) + np.median(lowest[inside]))
         parts, _ = label(mean >= level)
         for part in np.unique(parts[binary_dilation(inside)]):
+            if part == 0:  # what lies below the level
+                continue
             candidate = parts == part
-            if part != 0 and candidate.sum() <= MIDDLE_SHARE * candidate.size:
+            if candidate.sum() <= MIDDLE_SHARE * candidate.size:
                 middles |= candidate
     return middles
 
