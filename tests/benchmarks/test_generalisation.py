@@ -247,3 +247,22 @@ def test_levels_report_says_when_there_is_nothing_to_read(tmp_path, capsys):
     levels = load("diagnostics/object_levels")
     assert levels.main(["--call", str(tmp_path)]) == 1
     assert "object_levels: error: no scenes.csv" in capsys.readouterr().err
+
+
+def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
+    """benchmarks/diagnostics/milestones.py: a second start 3 % behind at step 300 that ends ahead is stopped
+    without a margin (the first start wins instead, in 1300 steps) and races on with 5 %."""
+    milestones = load("diagnostics/milestones")
+    ahead = [[100 * (i + 1), 1.0] for i in range(10)]
+    late = [[100 * (i + 1), 1.03 if i < 5 else 0.9] for i in range(10)]
+    metrics = {"selection": {"table": [{"candidate": "free", "rung": "free", "steps": 1000, "heldout_misfit": 1.0},
+                                       {"candidate": "free_start1", "rung": "free", "steps": 1000, "heldout_misfit": 0.9}]},
+               "stages": {"free_fit": {"planned_steps": 1000, "heldout_history": ahead},
+                          "free_start1_fit": {"planned_steps": 1000, "heldout_history": late}}}
+    (tmp_path / "metrics.json").write_text(json.dumps(metrics))
+    steps, every, ran = milestones.fits(tmp_path)
+    assert (steps, every, len(ran)) == (1000, 100, 2)
+    assert milestones.replay(steps, 0, ran, 0.0)[:2] == ("free_start1", 2000)
+    winner, used, lines = milestones.replay(steps, every, ran, 0.0)
+    assert (winner, used) == ("free", 1300) and "free_start1 stopped at step 300, +3.0% behind" in lines[0]
+    assert milestones.replay(steps, every, ran, 0.05)[:3] == ("free_start1", 2000, [])

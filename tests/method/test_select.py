@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from nct.method.select import Candidate, SelectionConf, Tournament
 
-CONF = SelectionConf(rungs=["static", "rigid", "free"], first_budget=0.25, tolerance=0.05)
+CONF = SelectionConf(rungs=["static", "rigid", "free"], first_budget=0.25, tolerance=0.05, milestone_margin=0.0)
 STATIC, RIGID, FREE = (Candidate(r, r, (i,)) for i, r in enumerate(CONF.rungs))
 
 
@@ -56,6 +57,18 @@ def test_another_start_of_the_same_model_must_lead_to_go_on():
     assert not t.stops(other)(history([0.99, 0.99, 0.99]))
 
 
+def test_a_near_tie_at_a_milestone_goes_on():
+    """Within ``milestone_margin`` of what it needs to win a fit goes on; beyond it, it stops, the margin named."""
+    t = Tournament(1000, 100, replace(CONF, milestone_margin=0.05))
+    t.record(FREE, history([1.0] * 10), 1000, 1.0)
+    other = Candidate("free_start1", "free", FREE.simplicity, 1)
+    assert not t.stops(other)(history([1.04, 1.04, 1.04]))
+    assert t.stops(other)(history([1.06, 1.06, 1.06]))
+    assert t.stops(STATIC)(history([1.12, 1.12, 1.12]))  # a simpler model: 1.05 x 1.05 allowed, 12 % behind
+    assert not t.stops(STATIC)(history([1.1, 1.1, 1.1]))
+    assert "6.0% above the 1 it needed" in t.record(other, history([1.06] * 3), 300, 1.06).pruned
+
+
 def test_parsimony_keeps_the_simplest_within_tolerance():
     t = Tournament(1000, 100, CONF)
     t.record(STATIC, history([1.0] * 10), 1000, 1.00)
@@ -97,7 +110,8 @@ def test_no_finished_candidate_is_an_error():
 
 @pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "motion.rungs"), ({"rungs": ["wobbly"]}, "motion.rungs"),
                                          ({"rungs": ["free", "free"]}, "motion.rungs"),
-                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": -0.1}, "motion.tolerance"), ({"band_f_max": 0.0}, "motion.band_f_max")])
+                                         ({"first_budget": 0}, "first_budget"), ({"tolerance": -0.1}, "motion.tolerance"), ({"milestone_margin": -0.01}, "motion.milestone_margin"),
+                                         ({"band_f_max": 0.0}, "motion.band_f_max")])
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)

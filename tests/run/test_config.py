@@ -52,7 +52,7 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
     assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance, conf.motion.band_f_max,
-            conf.motion.band_min_rotations) == (["free"], 0.25, 2 / 3, 0.5, 1.5)
+            conf.motion.band_min_rotations, conf.motion.milestone_margin) == (["free"], 0.25, 2 / 3, 0.5, 1.5, 0.05)
 
 
 def test_fast_optim_halves_every_stage_and_its_schedule():
@@ -103,6 +103,7 @@ def test_composition_errors_name_the_key(override, error, words):
         ("model=grid model.levels=9", "model.resolution must be >= 2**model.levels"),
         ("motion.rungs=[free,wobbly]", "motion.rungs must be a non-empty list of static, rigid, affine, free"),
         ("motion.tolerance=-1", "motion.tolerance"),
+        ("motion.milestone_margin=-0.1", "motion.milestone_margin must be >= 0"),
         ("motion=auto heldout.every=1", "heldout.every must be >= 2"),
         ("optim.lr=0", "optim.lr must be > 0"),
         ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),
