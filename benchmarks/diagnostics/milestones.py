@@ -65,9 +65,11 @@ def main() -> None:
     parser.add_argument("root", type=Path, help="a benchmark's output folder (its runs' metrics.json below it)")
     parser.add_argument("--margin", type=float, nargs="+", default=[0.0, 0.05], help="milestone margins to replay")
     args = parser.parse_args()
-    runs = sorted(p.parent for p in args.root.rglob("metrics.json"))
+    if min(args.margin) < 0:
+        parser.exit(2, f"milestones: error: --margin must be >= 0, got {min(args.margin)}\n")
+    runs = [p.parent for p in sorted(args.root.rglob("metrics.json")) if "selection" in json.loads(p.read_text())]
     if not runs:
-        parser.exit(2, f"milestones: error: no metrics.json below {args.root}\n")
+        parser.exit(2, f"milestones: error: no run with a tournament (metrics.json -> selection) below {args.root}\n")
     for run in runs:
         steps, every, ran = fits(run)
         if any(done < steps for _, _, done, m in ran if math.isfinite(m)):
