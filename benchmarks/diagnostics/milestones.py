@@ -23,10 +23,12 @@ from nct.method.select import RUNGS, Candidate, SelectionConf, Tournament
 FIRST_BUDGET = 0.25  # the schedule replayed: the default motion.first_budget
 
 
-def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, float]], int, float]]]:
+def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, float]], int, float]]] | None:
     """A run's fit steps, held-out check interval and fits in the order they ran: (candidate, held-out
-    history, steps, final misfit)."""
+    history, steps, final misfit); None for a run without a tournament (no metrics.json -> selection)."""
     metrics = json.loads((run / "metrics.json").read_text())
+    if "selection" not in metrics:
+        return None
     table, stages = metrics["selection"]["table"], metrics["stages"]
     out = []
     for row in table:
@@ -67,11 +69,11 @@ def main() -> None:
     args = parser.parse_args()
     if min(args.margin) < 0:
         parser.exit(2, f"milestones: error: --margin must be >= 0, got {min(args.margin)}\n")
-    runs = [p.parent for p in sorted(args.root.rglob("metrics.json")) if "selection" in json.loads(p.read_text())]
+    runs = {p.parent: fits(p.parent) for p in sorted(args.root.rglob("metrics.json"))}
+    runs = {run: found for run, found in runs.items() if found is not None}
     if not runs:
         parser.exit(2, f"milestones: error: no run with a tournament (metrics.json -> selection) below {args.root}\n")
-    for run in runs:
-        steps, every, ran = fits(run)
+    for run, (steps, every, ran) in runs.items():
         if any(done < steps for _, _, done, m in ran if math.isfinite(m)):
             parser.exit(2, f"milestones: error: {run} stopped fits early: rerun it with motion.first_budget=1\n")
         everyone = replay(steps, 0, ran, 0.0)

@@ -140,8 +140,8 @@ class Tournament:
             return None
         bound = self.to_win_at(candidate, step)
         if loss > (1 + self.conf.milestone_margin) * bound:
-            return (f"stopped at step {step}: held-out misfit {loss:.4g}, {loss / bound - 1:.1%} above the {bound:.4g} "
-                    "it needed to win")
+            behind = f"{loss / bound - 1:.1%}" if bound > 0 else "far"  # bound 0: another fit explained every view
+            return f"stopped at step {step}: held-out misfit {loss:.4g}, {behind} above the {bound:.4g} it needed to win"
         return None
 
     def stops(self, candidate: Candidate) -> Callable[[HeldoutHistory], bool]:
