@@ -18,6 +18,7 @@ from tests.conftest import ray_end_points, rel_l2, siddon
 S = load("scenes")
 F = load("scene_files")
 T = load("textured")
+E = load("diagnostics/edge_errors")
 
 
 def test_textured_draws_are_reproducible_per_seed_family_and_index():
@@ -173,3 +174,32 @@ def test_a_tiny_call_writes_its_tables(tmp_path, capsys):
     assert "## Per family" in text and f"| {name} | image |" in text
     assert (out / "families.csv").is_file() and (out / "scenes" / f"{name}.npz").is_file()
     assert "NCT/FBP MSE" in capsys.readouterr().out
+    assert E.main([str(out), name]) == 0  # benchmarks/diagnostics/edge_errors.py reads what the call wrote
+    report = capsys.readouterr().out
+    assert f"{name}, background=image: a(k)" in report and report.count("  level ") == int(k)
+    with pytest.raises(SystemExit, match="not a textured scene"):
+        E.main([str(out), "marble000"])
+
+
+def test_edge_errors_counts_a_disc_drawn_a_pixel_too_large_at_its_edge_alone():
+    yy, xx = np.mgrid[:32, :32]
+    radius = np.hypot(yy - 15.5, xx - 15.5)
+    truth, larger = (radius < 8)[None] * 1.0, (radius < 9)[None] * 1.0
+    fp, fn = E.edge_errors(larger, truth, 0.5)
+    ring = int(((radius < 9) & (radius >= 8)).sum())
+    assert dict(fp) == {1: ring} and not fn
+    far = larger.copy()
+    far[0, 0, 0] = 1.0  # a stray pixel far from the disc
+    fp, _ = E.edge_errors(far, truth, 0.5)
+    assert fp[E.FAR_PX] == 1 and fp[1] == ring
+    fp, fn = E.edge_errors(truth, larger, 0.5)
+    assert not fp and dict(fn) == {1: ring}
+
+
+def test_plateaus_measure_the_background_under_where_a_mover_always_lies_against_its_surroundings():
+    truth = np.zeros((2, 24, 24))
+    truth[0, 8:14, 6:14], truth[1, 8:14, 8:16] = 1.0, 1.0  # a block moving right: its middle columns always covered
+    background = np.full((24, 24), 0.5)
+    background[8:14, 8:14] += 0.2
+    assert E.plateaus(background, truth, 0.5) == [(36, pytest.approx(0.2))]
+    assert E.plateaus(np.full((24, 24), 0.5), truth, 0.5) == [(36, pytest.approx(0.0))]
