@@ -129,6 +129,22 @@ def test_a_turned_object_turns_with_its_axis():
     torch.testing.assert_close(turned, torch.rot90(still, 1, (0, 1)), atol=1e-5, rtol=1e-4)
 
 
+def test_a_field_loaded_from_a_turned_carried_ones_state_renders_the_same():
+    """The motion the buffers hold comes with the state (its Python mirrors are read again on loading):
+    a fresh field given a turned, carried field's state renders its g; given a fresh one's, it stops."""
+    f, fresh = lone(), lone()
+    plain = {k: v.clone() for k, v in fresh.state_dict().items()}
+    f.start_motion(replace(sightings(held=True, px=0.3, reach=0.3),
+                           angles=torch.tensor([[-1.0], [0.0], [1.0]]) * math.pi / 4, turned=0))
+    t = torch.tensor([0.3, 1.0])
+    fresh.load_state_dict(f.state_dict())
+    assert fresh.describe()["carried"] and fresh.describe()["turned"] and fresh.side == f.side < 32
+    torch.testing.assert_close(fresh.sdf(fresh.on_lattice(32), t), f.sdf(f.on_lattice(32), t), atol=0, rtol=0)
+    f.load_state_dict(plain)
+    assert not f.describe()["carried"] and not f.describe()["turned"]
+    torch.testing.assert_close(f.sdf(f.on_lattice(32), t), lone().sdf(lone().on_lattice(32), t), atol=0, rtol=0)
+
+
 @pytest.mark.parametrize("family", ["siren", "grid"])
 def test_a_carried_field_is_one_function_of_x_whatever_the_lattice(family):
     """Every third pixel centre of a 96-px lattice is one of the 32-px lattice's: the same g and dg/dt

@@ -13,7 +13,7 @@ from torch import nn
 
 from nct.acquisition.scanner import ImageGrid
 from nct.method.conf import LossConf, ModelConf
-from nct.method.fields import build_field, legendre
+from nct.method.fields import build_field
 from nct.method.lattice import lattice_points
 from nct.method.motion import (
     POSE_SCALE,
@@ -24,6 +24,7 @@ from nct.method.motion import (
 )
 from nct.method.reconstruct import reconstruct
 from nct.method.select import SelectionConf
+from nct.method.series import legendre
 from tests.conftest import INIT, OPTIM, TRAINER, moving_disc
 
 PLANE = torch.tensor([[0.7, -0.4], [0.2, 0.9]])  # template k(q) = PLANE[k] . q + OFFSET[k]: bilinear is exact

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
-from numpy.polynomial.legendre import legfit, legvander
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
@@ -27,6 +26,7 @@ from nct.method.lattice import (
     lattice_points,
     pixel_centres,
 )
+from nct.method.series import legendre, legendre_fit, on_scan, series_terms
 
 if TYPE_CHECKING:
     from nct.method.motion import Sightings
@@ -156,13 +156,22 @@ class Field(SpaceTimeField):
         self.register_buffer("turn", torch.zeros(self.n_carry))  # phi(t)'s series, rad
         self.register_buffer("turned", torch.tensor(False))
         self.register_buffer("turned_object", torch.tensor(0))  # k, the object that turns with phi
+        self._read_motion()
+        self.register_load_state_dict_post_hook(_reread_motion)
+
+    def _read_motion(self) -> None:
+        """Mirror the motion buffers that choose what a step computes as Python values: reading a
+        buffer on a GPU waits for every queued kernel, and a step asks for them each time."""
+        self._carried, self._turned = bool(self.carried), bool(self.turned)
+        self._turned_object = int(self.turned_object)
+        self._side = max(2, math.ceil(self.carry_resolution * min(float(self.extent), 1.0) - 1e-6))
 
     @property
     def side(self) -> int:
         """Pixels a side of h's lattice: ``model.carry_resolution`` per field of view over the share
         ``extent`` of it that the lattice covers, at most ``carry_resolution`` (a carried field renders
         no more points than an uncarried one); from the buffer, so a reloaded field has its own."""
-        return max(2, math.ceil(self.carry_resolution * min(float(self.extent), 1.0) - 1e-6))
+        return self._side
 
     @torch.no_grad()
     def start_motion(self, seen: Sightings) -> None:
@@ -184,6 +193,7 @@ class Field(SpaceTimeField):
             self.turn.copy_(legendre_fit(s, angles - angles.mean(), self.n_carry)[:, 0])
             self.turned.fill_(True)
             self.turned_object.fill_(seen.turned)
+        self._read_motion()
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -199,7 +209,7 @@ class Field(SpaceTimeField):
     def on_lattice(self, size: int) -> Coefficients:
         """What ``sdf`` needs for g at the pixel centres of a size x size image (rows down, P = size**2):
         the coefficients there, or on h's own lattice where the field is carried."""
-        if not bool(self.carried):
+        if not self._carried:
             return self.rendered(size)
         return replace(self.rendered(self.side, self.centre, self.extent), carry_to=size)
 
@@ -247,12 +257,12 @@ class Field(SpaceTimeField):
         beyond it); where size is None (not carried), ``values`` [T, K, P] with a turning part's
         channel turned (class docstring)."""
         if size is None:
-            return self._turned_part(values, t) if bool(self.turned) else values
+            return self._turned_part(values, t) if self._turned else values
         series = legendre(on_scan(t, self.span), self.n_carry)
         shift = series @ self.carry.T + self.centre  # d(t) + m, [T, 2]
-        u = pixel_centres(size).to(values)
+        u = pixel_centres(size, values.device).to(values)
         side = math.isqrt(values.shape[-1])
-        if bool(self.turned):
+        if self._turned:
             h = values.reshape(t.shape[0], 1, side, side)
             return self._turned_along(h, shift, series @ self.turn, u, torch.zeros_like(self.centre))
         rows = interpolation_on_pixels((u + shift[:, 1:]) / self.extent, side)  # rows run down, y up
@@ -263,11 +273,11 @@ class Field(SpaceTimeField):
     def _turned_part(self, values: Tensor, t: Tensor) -> Tensor:
         """``values`` [T, K, P] on the image's lattice with object k's channel looked up at
         m + R(-phi(t)) (x - m): [T, K, P]."""
-        k, side = int(self.turned_object), math.isqrt(values.shape[-1])
+        k, side = self._turned_object, math.isqrt(values.shape[-1])
         phi = legendre(on_scan(t, self.span), self.n_carry) @ self.turn
         h = values[:, k:k + 1].reshape(t.shape[0], 1, side, side)
-        looked = self._turned_along(h, self.centre.expand(t.shape[0], 2), phi, pixel_centres(side).to(values),
-                                    self.centre)
+        u = pixel_centres(side, values.device).to(values)
+        looked = self._turned_along(h, self.centre.expand(t.shape[0], 2), phi, u, self.centre)
         return torch.cat([values[:, :k], looked, values[:, k + 1:]], dim=1)
 
     def _turned_along(self, h: Tensor, shift: Tensor, phi: Tensor, u: Tensor, offset: Tensor) -> Tensor:
@@ -290,10 +300,15 @@ class Field(SpaceTimeField):
             "n_terms": self.n_terms,
             "static": self.temporal is None,
             "omega_abs_max": float(self.omega.abs().max()) if self.n_terms else 0.0,
-            "carried": bool(self.carried),
-            "turned": bool(self.turned),
-            "turned_object": int(self.turned_object) if bool(self.turned) else None,
+            "carried": self._carried,
+            "turned": self._turned,
+            "turned_object": self._turned_object if self._turned else None,
         }
+
+
+def _reread_motion(field: Field, _keys) -> None:
+    """After a field's state is loaded, mirror its motion buffers again (``Field._read_motion``)."""
+    field._read_motion()
 
 
 class MultiGrid(nn.Module):
@@ -329,7 +344,7 @@ class MultiGrid(nn.Module):
             if centre is None:
                 rows, cols = lattice_interpolation(size, g.shape[-1], g.device)
             else:
-                u = pixel_centres(size).to(g.device)
+                u = pixel_centres(size, g.device)
                 rows = interpolation_matrix(centre[1] - extent * u, g.shape[-1])
                 cols = interpolation_matrix(centre[0] + extent * u, g.shape[-1])
             total = total + rows @ g[0] @ cols.T
@@ -367,29 +382,3 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
     elif motion != "free":
         raise ValueError(f"motion {motion!r} is not a rung of the ladder")
     return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator, span)
-
-
-def series_terms(conf: ModelConf, span: float) -> int:
-    """Legendre terms of a motion series over a scan of ``span`` rotations: ``model.pose_terms_per_rotation``
-    per rotation, at least 2 (the rigid and affine poses, the carried path)."""
-    return max(2, math.ceil(conf.pose_terms_per_rotation * span - 1e-9))
-
-
-def on_scan(t: Tensor, span: Tensor) -> Tensor:
-    """Times t (rotations) mapped to [-1, 1] over a scan of ``span`` rotations: where Legendre
-    polynomials are orthogonal."""
-    return 2 * t / span - 1
-
-
-def legendre(s: Tensor, n: int) -> Tensor:
-    """Legendre polynomials P_0 .. P_{n-1} at s [T] (the span is [-1, 1]): [T, n], numpy's
-    (``legvander``; times are data, not parameters, so no gradient flows through s)."""
-    return torch.from_numpy(legvander(s.detach().cpu().double().numpy(), n - 1)).to(s)
-
-
-def legendre_fit(s: Tensor, values: Tensor, n: int) -> Tensor:
-    """Least-squares coefficients [n, C] of P_0 .. P_{n-1} fitting ``values`` [F, C] at s [F], numpy's
-    (``legfit``, in float64: float32 LAPACK's answer changes with where its arrays lie in memory,
-    and a seeded run must repeat bit for bit)."""
-    fit = legfit(s.detach().cpu().double().numpy(), values.detach().cpu().double().numpy(), n - 1)
-    return torch.from_numpy(fit).to(values)

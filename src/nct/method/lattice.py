@@ -13,9 +13,11 @@ import torch
 from torch import Tensor
 
 
-def pixel_centres(size: int) -> Tensor:
-    """Centres of ``size`` pixels spanning [-1, 1], increasing: [size] float32."""
-    return (2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1
+@lru_cache(maxsize=16)
+def pixel_centres(size: int, device: torch.device | None = None) -> Tensor:
+    """Centres of ``size`` pixels spanning [-1, 1], increasing: [size] float32. Cached per device
+    (a carried field asks for them every step; a copy to a GPU waits for its queue): do not modify."""
+    return ((2 * torch.arange(size, dtype=torch.float32) + 1) / size - 1).to(device)
 
 
 @lru_cache(maxsize=8)

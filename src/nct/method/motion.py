@@ -23,17 +23,10 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nct.method.conf import ModelConf
-from nct.method.fields import (
-    MultiGrid,
-    Siren,
-    SpaceTimeField,
-    legendre,
-    legendre_fit,
-    on_scan,
-    series_terms,
-)
+from nct.method.fields import MultiGrid, Siren, SpaceTimeField
 from nct.method.lattice import lattice_points, pixel_centres
 from nct.method.orientation import ELONGATED
+from nct.method.series import legendre, legendre_fit, on_scan, series_terms
 
 SPAN = 2.0  # a template covers at most [-SPAN, SPAN]^2 about its centre: the whole image for any centre in it
 REACH_MARGIN = 1.5  # a template's half-width: this times its object's reach in the start's masks, plus
