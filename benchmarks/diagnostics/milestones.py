@@ -18,7 +18,7 @@ import json
 import math
 from pathlib import Path
 
-from nct.method.select import RUNGS, Candidate, SelectionConf, Tournament
+from nct.method.select import RUNGS, Candidate, SceneModel, SelectionConf, Tournament
 
 FIRST_BUDGET = 0.25  # the schedule replayed: the default motion.first_budget
 
@@ -30,13 +30,16 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
     if "selection" not in metrics:
         return None
     table, stages = metrics["selection"]["table"], metrics["stages"]
+    if any("n_objects" not in row for row in table):
+        raise ValueError(f"{run} was written by an older nct (its selection table names no candidate's model): rerun it")
+    named = len({(row["n_objects"], row["background"]) for row in table}) > 1
     out = []
     for row in table:
-        name = row["candidate"]
-        band = int("_band" in name)
-        history = [(int(step), float(loss)) for step, loss in stages.get(f"{name}_fit", {}).get("heldout_history", [])]
-        out.append((Candidate(name, row["rung"], (RUNGS.index(row["rung"]), band)), history, int(row["steps"]),
-                    float(row["heldout_misfit"])))
+        cand = Candidate(SceneModel(row["n_objects"], row["background"]), row["rung"], row["start"], row["f_max"],
+                         row["turning"], row["restart"], named)
+        history = [(int(step), float(loss))
+                   for step, loss in stages.get(f"{row['candidate']}_fit", {}).get("heldout_history", [])]
+        out.append((cand, history, int(row["steps"]), float(row["heldout_misfit"])))
     steps = max(stages[f"{row['candidate']}_fit"].get("planned_steps", 0) for row in table)
     every = min((b[0] - a[0] for _, h, _, _ in out for a, b in zip(h, h[1:])), default=0)
     return steps, every, out
@@ -69,7 +72,10 @@ def main() -> None:
     args = parser.parse_args()
     if min(args.margin) < 0:
         parser.exit(2, f"milestones: error: --margin must be >= 0, got {min(args.margin)}\n")
-    runs = {p.parent: fits(p.parent) for p in sorted(args.root.rglob("metrics.json"))}
+    try:
+        runs = {p.parent: fits(p.parent) for p in sorted(args.root.rglob("metrics.json"))}
+    except ValueError as err:
+        parser.exit(2, f"milestones: error: {err}\n")
     runs = {run: found for run, found in runs.items() if found is not None}
     if not runs:
         parser.exit(2, f"milestones: error: no run with a tournament (metrics.json -> selection) below {args.root}\n")

@@ -255,8 +255,10 @@ def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
     milestones = load("diagnostics/milestones")
     ahead = [[100 * (i + 1), 1.0] for i in range(10)]
     late = [[100 * (i + 1), 1.03 if i < 5 else 0.9] for i in range(10)]
-    metrics = {"selection": {"table": [{"candidate": "free", "rung": "free", "steps": 1000, "heldout_misfit": 1.0},
-                                       {"candidate": "free_start1", "rung": "free", "steps": 1000, "heldout_misfit": 0.9}]},
+    model = {"n_objects": 2, "background": "none", "rung": "free", "f_max": None, "turning": None, "restart": False}
+    metrics = {"selection": {"table": [{"candidate": "free", **model, "start": 0, "steps": 1000, "heldout_misfit": 1.0},
+                                       {"candidate": "free_start1", **model, "start": 1, "steps": 1000,
+                                        "heldout_misfit": 0.9}]},
                "stages": {"free_fit": {"planned_steps": 1000, "heldout_history": ahead},
                           "free_start1_fit": {"planned_steps": 1000, "heldout_history": late}}}
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
@@ -266,3 +268,15 @@ def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
     winner, used, lines = milestones.replay(steps, every, ran, 0.0)
     assert (winner, used) == ("free", 1300) and "free_start1 stopped at step 300, +3.0% behind" in lines[0]
     assert milestones.replay(steps, every, ran, 0.05)[:3] == ("free_start1", 2000, [])
+
+
+def test_milestones_refuses_a_table_without_the_candidates_models(tmp_path, capsys, monkeypatch):
+    """A run written before the candidates were typed records no model per row: one line, exit code 2."""
+    milestones = load("diagnostics/milestones")
+    metrics = {"selection": {"table": [{"candidate": "free", "rung": "free", "steps": 1000, "heldout_misfit": 1.0}]},
+               "stages": {"free_fit": {"planned_steps": 1000, "heldout_history": [[100, 1.0]]}}}
+    (tmp_path / "metrics.json").write_text(json.dumps(metrics))
+    monkeypatch.setattr("sys.argv", ["milestones", str(tmp_path)])
+    with pytest.raises(SystemExit) as exit_:
+        milestones.main()
+    assert exit_.value.code == 2 and "written by an older nct" in capsys.readouterr().err

@@ -33,7 +33,7 @@ from nct.method.prepare import (
 )
 from nct.method.reconstruct import candidates, reconstruct
 from nct.method.render import project_frames
-from nct.method.select import SelectionConf
+from nct.method.select import SceneModel, SelectionConf
 from nct.physics.projector import fbp_frames
 from nct.run.metrics import frame_metrics
 from nct.scenes.phantoms import CircleConf, EllipseConf, Signal, build_phantom
@@ -329,7 +329,7 @@ def test_a_held_part_axis_adds_one_turned_free_field_per_object(rungs, turning, 
     """Which of K objects turns with a part's axis (prepare.py) is raced as the free rung from the best
     judged start turning each of them, the same model as the unturned free field; no free rung, none."""
     starts = [Start(np.zeros((1, 1, 2, 2)))] * 2
-    pool = candidates(SelectionConf(rungs=rungs), starts, span=1.0, turning=turning)
+    pool = candidates(SelectionConf(rungs=rungs), starts, span=1.0, scene=SceneModel(3), turning=turning)
     assert [c.name for c in pool] == [f"{r}{s}" for r in rungs for s in ("", "_start1")] + extra
     turned = [c for c in pool if c.turning is not None]
     assert [c.turning for c in turned] == list(range(len(extra)))

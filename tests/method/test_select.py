@@ -7,10 +7,11 @@ from dataclasses import replace
 
 import pytest
 
-from nct.method.select import Candidate, SelectionConf, Tournament
+from nct.method.select import Candidate, SceneModel, SelectionConf, Tournament
 
 CONF = SelectionConf(rungs=["static", "rigid", "free"], first_budget=0.25, tolerance=0.05, milestone_margin=0.0)
-STATIC, RIGID, FREE = (Candidate(r, r, (i,)) for i, r in enumerate(CONF.rungs))
+SCENE = SceneModel(1)
+STATIC, RIGID, FREE = (Candidate(SCENE, r) for r in CONF.rungs)
 
 
 def history(losses: list[float], every: int = 100) -> list[tuple[int, float]]:
@@ -52,7 +53,7 @@ def test_a_freer_fit_must_lead_a_simpler_one_by_the_tolerance_to_go_on():
 def test_another_start_of_the_same_model_must_lead_to_go_on():
     t = Tournament(1000, 100, CONF)
     t.record(FREE, history([1.0] * 10), 1000, 1.0)
-    other = Candidate("free_start1", "free", FREE.simplicity, 1)
+    other = Candidate(SCENE, "free", start=1)
     assert t.stops(other)(history([1.01, 1.01, 1.01]))
     assert not t.stops(other)(history([0.99, 0.99, 0.99]))
 
@@ -61,7 +62,7 @@ def test_a_near_tie_at_a_milestone_goes_on():
     """Within ``milestone_margin`` of what it needs to win a fit goes on; beyond it, it stops, the margin named."""
     t = Tournament(1000, 100, replace(CONF, milestone_margin=0.05))
     t.record(FREE, history([1.0] * 10), 1000, 1.0)
-    other = Candidate("free_start1", "free", FREE.simplicity, 1)
+    other = Candidate(SCENE, "free", start=1)
     assert not t.stops(other)(history([1.04, 1.04, 1.04]))
     assert t.stops(other)(history([1.06, 1.06, 1.06]))
     assert t.stops(STATIC)(history([1.12, 1.12, 1.12]))  # a simpler model: 1.05 x 1.05 allowed, 12 % behind
@@ -76,8 +77,8 @@ def test_parsimony_keeps_the_simplest_within_tolerance():
     t.record(FREE, history([0.9] * 10), 1000, 0.96)
     v = t.verdict()
     assert v.winner == STATIC and "simplest" in v.reason
-    assert [r["candidate"] for r in v.rows] == ["static", "rigid", "free"]
-    assert v.rows[0]["verdict"] == "winner" and "simpler" in v.rows[2]["verdict"]
+    assert [r.candidate for r in v.rows] == ["static", "rigid", "free"]
+    assert v.rows[0].verdict == "winner" and "simpler" in v.rows[2].verdict
 
 
 def test_a_clearly_better_complex_candidate_wins():
@@ -85,7 +86,7 @@ def test_a_clearly_better_complex_candidate_wins():
     t.record(STATIC, history([1.0] * 10), 1000, 1.0)
     t.record(FREE, history([0.5] * 10), 1000, 0.5)
     v = t.verdict()
-    assert v.winner == FREE and v.rows[0]["verdict"].startswith("held-out misfit +100")
+    assert v.winner == FREE and v.rows[0].verdict.startswith("held-out misfit +100")
 
 
 def test_pruned_candidates_cannot_win():
@@ -100,7 +101,7 @@ def test_a_failed_fit_is_pruned_with_its_reason_and_cannot_win():
     t.record(STATIC, [], 0, math.inf, failed="diverged: stage 'static_fit' diverged at step 100")
     t.record(RIGID, history([2.0] * 10), 1000, 2.0)
     v = t.verdict()
-    assert v.winner == RIGID and v.rows[0]["verdict"].startswith("diverged: stage 'static_fit'")
+    assert v.winner == RIGID and v.rows[0].verdict.startswith("diverged: stage 'static_fit'")
 
 
 def test_no_finished_candidate_is_an_error():

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import copy
 import logging
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import lightning as L
@@ -34,7 +34,7 @@ from nct.method.initialise import Start, find_starts, turned_start
 from nct.method.prepare import Problem, heldout_standard_error, prepare
 from nct.method.render import intensity
 from nct.method.sdf import binarise, masks_to_sdf
-from nct.method.select import RUNGS, Candidate, SelectionConf, Tournament, Verdict
+from nct.method.select import Candidate, SceneModel, SelectionConf, Tournament, Verdict
 from nct.method.stages import FieldStage, SinogramFit
 from nct.method.trainer import LOGGERS, RunClock, snapshot
 
@@ -42,7 +42,6 @@ log = logging.getLogger(__name__)
 RESTART_RATE = 0.5  # a fit whose misfit ends above its start is tried again at this share of its rates
 EMPTY = 0.999  # a misfit above this share of an empty image's explains nothing: a field faded to nothing renders
 # its sigmoid tails and scores a hair below the empty image (the tiny test's small disc: 1 - 2e-8)
-PAPER = "free"  # the paper's field from the best judged start: the candidate that continues the run's random streams
 
 
 @dataclass(frozen=True)
@@ -83,22 +82,21 @@ class NCTResult:
     background: np.ndarray | None = None
 
 
-def candidates(motion: SelectionConf, starts: list[Start], span: float, turning: int = 0) -> list[Candidate]:
-    """One candidate per model and start (named ``<model>`` for the best judged start, ``<model>_start<n>``
-    for the others, so that more starts change no name): each rung of ``motion.rungs``, and on a scan of
-    ``span`` >= ``motion.band_min_rotations`` rotations the free rung at ``motion.band_f_max`` too
-    (``free_band``); simpler models, then better judged starts, first. Where one of ``turning`` objects
-    turns with a part's axis read off the views (prepare.py), the free rung from the best judged start
-    turning each of them in turn (``free_turn<k>``): the same model, which object turns the held-out
-    views tell."""
-    models = [(rung, rung, (RUNGS.index(rung), 0), None) for rung in motion.rungs]
+def candidates(motion: SelectionConf, starts: list[Start], span: float, scene: SceneModel, turning: int = 0,
+               scene_named: bool = False) -> list[Candidate]:
+    """The candidates of one ``scene`` model: each rung of ``motion.rungs`` from each start, and on a scan of
+    ``span`` >= ``motion.band_min_rotations`` rotations the free rung at ``motion.band_f_max`` too; simpler
+    models, then better judged starts, first. Where one of ``turning`` objects turns with a part's axis read
+    off the views (prepare.py), the free rung from the best judged start turning each of them in turn: the
+    same model, which object turns the held-out views tell."""
+    bands: list[tuple[str, float | None]] = [(rung, None) for rung in motion.rungs]
     if "free" in motion.rungs and motion.band_f_max is not None and span >= motion.band_min_rotations:
-        models.append(("free_band", "free", (RUNGS.index("free"), 1), motion.band_f_max))
-    pool = [Candidate(f"{name}_start{n}" if n else name, rung, simplicity, n, f_max)
-            for name, rung, simplicity, f_max in models for n in range(len(starts))]
+        bands.append(("free", motion.band_f_max))
+    pool = [Candidate(scene, rung, n, f_max, scene_named=scene_named)
+            for rung, f_max in bands for n in range(len(starts))]
     if "free" not in motion.rungs:
         return pool
-    return pool + [Candidate(f"free_turn{k}", "free", (RUNGS.index("free"), 0), 0, None, k) for k in range(turning)]
+    return pool + [Candidate(scene, "free", turning=k, scene_named=scene_named) for k in range(turning)]
 
 
 @torch.no_grad()
@@ -144,125 +142,172 @@ def reconstruct(
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
-    prob = prepare(sino, grid, loss, init, heldout, fbp_filter, fbp_window_deg,
-                   lone=n_objects == 1 and background.name != "image",
-                   parts=n_objects > 1 and background.name != "image")
-    run_rng = np.random.default_rng(seed)
-    starts = find_starts(prob, n_objects, init, run_rng, background)
-    verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
-                                        render)
+    setups = [set_up(sino, grid, SceneModel(n_objects, background.name), seed, loss, init, heldout, background,
+                     (fbp_filter, fbp_window_deg))]
+    verdict, fitted, nets = _tournament(setups, session, model, seed, motion, optim, render)
     winner = verdict.winner
-    net, fit, checked = nets[winner.name], fitted[winner.name].fit, fitted[winner.name].losses
-    net.load_state_dict(fitted[winner.name].state)
+    chosen = next(s for s in setups if s.model == winner.scene)
+    prob = chosen.prob
+    net, fit, checked = nets[winner], fitted[winner].fit, fitted[winner].losses
+    net.load_state_dict(fitted[winner].state)
     log.info("selection: %s", verdict.reason)
-
     if optim.refine:
-        # The second pass continues the winner: InitFit re-distances it to Algorithm 2's SDF of its own binarised frames.
-        targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), prob.grid.pixel_size,
-                               workers=torch.get_num_threads())
-        rng, _ = streams(seed, "refine")
-        refine_optim, refine_render = replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px)
-        init_fit(prob, session, net, "refine", Start(targets), optim.refine_init_steps, refine_optim, refine_render, rng)
-        done = sinogram_fit(prob, session, net, "refine", optim.refine_fit_steps, refine_optim, refine_render, rng)
-        fit, checked = done.fit, done.losses
-
+        fit, checked = _refine(prob, session, net, fit, seed, optim, render)
     times = prob.clock(frame_times)
     trace = _trace(session, prob, fit, times, render)
     frames, sdf = _frames(fit, times, render, prob.grid)
     units = prob.units
-    amplitudes = net.intensities.detach().cpu().double() * units.intensity
-    seg = starts[winner.start].segmentation
     held = prob.held_losses(checked)
     return NCTResult(
         frames=(frames * units.intensity).astype(np.float32), sdf=(sdf * units.length).astype(np.float32),
-        intensities=amplitudes.numpy(), heldout_loss=float(held.mean()) if len(held) else float("nan"),
+        intensities=(net.intensities.detach().cpu().double() * units.intensity).numpy(),
+        heldout_loss=float(held.mean()) if len(held) else float("nan"),
         heldout_se=heldout_standard_error(held), stages=session.stages,
         model={"motion": winner.rung, "family": model.family, **net.describe()},
         selection={"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
-                   "reason": verdict.reason, "table": verdict.rows,
+                   "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows],
                    "tolerance": motion.tolerance, "first_budget": motion.first_budget},
-        init={"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": init.levels, "start": winner.start,
-              "starts_tried": len(starts), "levels_misfit": seg.misfit, "frame_coverage_deg": prob.frame_coverage_deg,
-              "background": seg.background * units.intensity,
-              "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
-              "intensity_unit": units.intensity},
+        init=_init_record(chosen, winner, init.levels),
         trace=trace,
         background=None if net.background is None else
         (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32))
 
 
-def _tournament(prob: Problem, session: Session, model: ModelConf, starts: list[Start], n_objects: int,
-                seeds: tuple[int, np.random.Generator], motion: SelectionConf, optim: OptimConf, render: RenderConf,
-                ) -> tuple[Verdict, dict[str, Fitted], dict[str, SpaceTimeField]]:
-    """Fit every candidate and choose one (select.py). All InitFits run first; the sinogram fits then run
-    from the best-started candidate on, so that the later ones race the best histories. A fit that ends
-    above where it started, or explains the check views no better than an empty image, has lost its way
+@dataclass
+class SceneSetup:
+    """One scene model's share of a run: its ``Problem`` (prepare.py), its judged ``starts`` and the run's
+    random generator as a run of that model alone holds it once they are found (the paper's field continues it)."""
+
+    model: SceneModel
+    prob: Problem
+    starts: list[Start]
+    rng: np.random.Generator
+
+
+def set_up(sino: Sinogram, grid: ImageGrid, scene: SceneModel, seed: int, loss: LossConf, init: InitConf,
+           heldout: HeldoutConf, background: BackgroundConf, fbp: tuple[str, float]) -> SceneSetup:
+    """Prepare the data (prepare.py) and find the starts (initialise.py) of one ``scene`` model; ``fbp``: the
+    FBP frames' filter and window (degrees). A lone object without a background is held along its path, several
+    without one are searched for a turning part; over a background the objects are sought in what moves."""
+    image = scene.background == "image"
+    prob = prepare(sino, grid, loss, init, heldout, *fbp, lone=scene.n_objects == 1 and not image,
+                   parts=scene.n_objects > 1 and not image)
+    rng = np.random.default_rng(seed)
+    starts = find_starts(prob, scene.n_objects, init, rng, replace(background, name=scene.background))
+    return SceneSetup(scene, prob, starts, rng)
+
+
+def _refine(prob: Problem, session: Session, net: SpaceTimeField, fit: SinogramFit, seed: int, optim: OptimConf,
+            render: RenderConf) -> tuple[SinogramFit, np.ndarray]:
+    """The second pass (``optim.refine``): it continues the winner, InitFit re-distancing it to Algorithm 2's SDF
+    of its own binarised frames; returns its SinogramFit and the check views' misfits."""
+    targets = masks_to_sdf(binarise(field_frames(fit, prob.init_times)), prob.grid.pixel_size,
+                           workers=torch.get_num_threads())
+    rng, _ = streams(seed, "refine")
+    refine_optim, refine_render = replace(optim, lr=optim.refine_lr), replace(render, band_start_px=render.band_px)
+    init_fit(prob, session, net, "refine", Start(targets), optim.refine_init_steps, refine_optim, refine_render, rng)
+    done = sinogram_fit(prob, session, net, "refine", optim.refine_fit_steps, refine_optim, refine_render, rng)
+    return done.fit, done.losses
+
+
+def _init_record(chosen: SceneSetup, winner: Candidate, levels_from: str) -> dict:
+    """metrics.json's ``init``: the winner's start (segment.py's route, levels), the units, in the data's, and the
+    degrees of view angle a held axis leaves its object's own frame seen over (prepare.py; None: none held)."""
+    seg, prob, units = chosen.starts[winner.start].segmentation, chosen.prob, chosen.prob.units
+    return {"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": levels_from, "start": winner.start,
+            "starts_tried": len(chosen.starts), "levels_misfit": seg.misfit,
+            "frame_coverage_deg": prob.frame_coverage_deg, "background": seg.background * units.intensity,
+            "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
+            "intensity_unit": units.intensity}
+
+
+def _tournament(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int, motion: SelectionConf,
+                optim: OptimConf, render: RenderConf,
+                ) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField]]:
+    """Fit every candidate of every scene model and choose one (select.py). All InitFits run first; the sinogram
+    fits then run from the best-started candidate on, so that the later ones race the best histories. A fit that
+    ends above where it started, or explains the check views no better than an empty image, has lost its way
     (an object fell out of the band, where no gradient reaches it): a restart joins the tournament at
     ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own
     weights and InitFit) where that InitFit explained nothing either. A fit that diverges drops out (its
-    restart joins likewise); the run fails with its error only when no candidate finishes.
-    ``seeds``: the run's seed and its generator, which the candidate ``PAPER`` continues (fitting.streams)."""
-    seed, run_rng = seeds
-    nets: dict[str, SpaceTimeField] = {}
-    started: dict[str, tuple[float, dict, np.random.Generator]] = {}
+    restart joins likewise); the run fails with its error only when no candidate finishes. Each candidate
+    draws from its own streams (fitting.streams); the paper's field continues its scene model's generator."""
+    by_model = {s.model: s for s in setups}
+    nets: dict[Candidate, SpaceTimeField] = {}
+    started: dict[Candidate, tuple[float, dict, np.random.Generator]] = {}
 
     def start(cand: Candidate) -> None:
-        rng, torch_seed = (run_rng, seed) if cand.name == PAPER else streams(seed, cand.name)
+        setup = by_model[cand.scene]
+        rng, torch_seed = (setup.rng, seed) if cand.continues_run else streams(seed, cand.key)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
             conf = model if cand.f_max is None else replace(model, f_max=cand.f_max)
-            nets[cand.name] = net = build_field(conf, n_objects, torch.Generator().manual_seed(torch_seed), cand.rung,
-                                                  prob.span)
-            begin = starts[cand.start] if cand.turning is None else turned_start(prob, starts[cand.start], cand.turning)
-            misfit = init_fit(prob, session, net, cand.name, begin, optim.init_steps, optim, render, rng,
+            nets[cand] = net = build_field(conf, cand.scene.n_objects, torch.Generator().manual_seed(torch_seed),
+                                           cand.rung, setup.prob.span)
+            begin = setup.starts[cand.start]
+            begin = begin if cand.turning is None else turned_start(setup.prob, begin, cand.turning)
+            misfit = init_fit(setup.prob, session, net, cand.name, begin, optim.init_steps, optim, render, rng,
                               optim.coarse_size)
-        started[cand.name] = misfit, copy.deepcopy(net.state_dict()), rng
+        started[cand] = misfit, copy.deepcopy(net.state_dict()), rng
 
-    pool = candidates(motion, starts, prob.span, 0 if prob.part_orientations is None else n_objects)
+    named = len(setups) > 1
+    pool = [c for s in setups for c in candidates(
+        motion, s.starts, s.prob.span, s.model, 0 if s.prob.part_orientations is None else s.model.n_objects, named)]
     for cand in pool:
         start(cand)
-    tournament = Tournament(optim.fit_steps, session.check_every if len(prob.held_views) else 0, motion)
-    empty = EMPTY * prob.empty_misfit()
-    fitted: dict[str, Fitted] = {}
+    tournament = Tournament(optim.fit_steps, session.check_every if len(setups[0].prob.held_views) else 0, motion)
+    empty = EMPTY * setups[0].prob.empty_misfit()
+    fitted: dict[Candidate, Fitted] = {}
     diverged: DivergenceError | None = None  # the first: the run's error when no candidate finishes
-    queue = sorted(pool, key=lambda c: started[c.name][0])
+    queue = sorted(pool, key=lambda c: started[c][0])
     while queue:
         cand = queue.pop(0)
-        restart = cand.name.endswith("_restart")
-        base = cand.name.removesuffix("_restart")
-        if restart and started[base][0] >= empty:
+        base = replace(cand, restart=False)
+        if cand.restart and started[base][0] >= empty:
             start(cand)
-        elif restart:
-            nets[cand.name], started[cand.name] = nets[base], started[base]
-        net = nets[cand.name]
-        misfit0, state, rng = started[cand.name]
-        net.load_state_dict(state)
-        try:
-            with torch.random.fork_rng():
-                torch.manual_seed(seed if cand.name == PAPER else streams(seed, cand.name)[1])
-                done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
-                                    at_rate(optim, RESTART_RATE if restart else 1.0), render, rng, optim.coarse_size,
-                                    tournament.stops(cand))
-        except DivergenceError as err:  # seen on a GPU: a band candidate at step 100, the free field finished
-            diverged = diverged or err
-            session.stages[f"{cand.name}_fit"] = {"verdict": f"diverged: {err}"}
-            tournament.record(cand, [], 0, float("inf"), failed=f"diverged: {err}")
-            lost = f"{err}; it drops out of the tournament"
-            if restart:
-                log.warning("%s", lost)
+        elif cand.restart:
+            nets[cand], started[cand] = nets[base], started[base]
+        lost, done = _fit(cand, by_model[cand.scene].prob, session, nets[cand], started[cand], seed, tournament,
+                          (optim, render), empty)
+        if isinstance(done, DivergenceError):
+            diverged = diverged or done
         else:
-            entry = tournament.record(cand, done.history, done.steps, done.misfit)
-            session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
-            fitted[cand.name] = done
-            lost = (f"stage {cand.name}_fit: its misfit went from {misfit0:.3g} to {done.misfit:.3g} (an empty "
-                    f"image's: {empty:.3g})" if entry.pruned is None and (done.misfit > misfit0 or done.misfit >= empty)
-                    else None)
-        if lost and not restart:
+            fitted[cand] = done
+        if lost and not cand.restart:
             log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
-            queue.insert(0, replace(cand, name=f"{cand.name}_restart"))
+            queue.insert(0, replace(cand, restart=True))
     if diverged is not None and all(e.pruned for e in tournament.entries):
         raise diverged
     return tournament.verdict(), fitted, nets
+
+
+def _fit(cand: Candidate, prob: Problem, session: Session, net: SpaceTimeField,
+         started: tuple[float, dict, np.random.Generator], seed: int, tournament: Tournament,
+         settings: tuple[OptimConf, RenderConf], empty: float) -> tuple[str | None, Fitted | DivergenceError]:
+    """The sinogram fit of ``cand`` from its InitFit (``started``: misfit, state, generator), entered in the
+    ``tournament``; returns why it lost its way (None: it did not) and the fit, or the error it diverged with."""
+    optim, render = settings
+    misfit0, state, rng = started
+    net.load_state_dict(state)
+    try:
+        with torch.random.fork_rng():
+            torch.manual_seed(seed if cand.continues_run else streams(seed, cand.key)[1])
+            done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
+                                at_rate(optim, RESTART_RATE if cand.restart else 1.0), render, rng, optim.coarse_size,
+                                tournament.stops(cand))
+    except DivergenceError as err:  # seen on a GPU: a band candidate at step 100, the free field finished
+        session.stages[f"{cand.name}_fit"] = {"verdict": f"diverged: {err}"}
+        tournament.record(cand, [], 0, float("inf"), failed=f"diverged: {err}")
+        lost = f"{err}; it drops out of the tournament"
+        if cand.restart:
+            log.warning("%s", lost)
+        return lost, err
+    entry = tournament.record(cand, done.history, done.steps, done.misfit)
+    session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
+    lost = (f"stage {cand.name}_fit: its misfit went from {misfit0:.3g} to {done.misfit:.3g} (an empty "
+            f"image's: {empty:.3g})" if entry.pruned is None and (done.misfit > misfit0 or done.misfit >= empty)
+            else None)
+    return lost, done
 
 
 def _trace(session: Session, prob: Problem, fit: SinogramFit, times: torch.Tensor,

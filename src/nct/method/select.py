@@ -62,18 +62,78 @@ class SelectionConf:
 
 
 @dataclass(frozen=True)
-class Candidate:
-    """One choice in the tournament: a unique ``name`` (its random streams derive from it), its motion
-    ``rung``, its model's ``simplicity`` (lower is simpler: the ladder's order, then the band), the index
-    of the ``start`` it begins from, its field's ``f_max`` (None: model.f_max) and the object its free
-    field turns with a turning part's axis read off the views (``turning``; None: none, prepare.py)."""
+class SceneModel:
+    """What a candidate takes the scene to be: ``n_objects`` objects of distinct intensity over the
+    ``background`` ("none": empty; "image": a static image under them, the objects then its moving parts)."""
 
-    name: str
+    n_objects: int
+    background: str = "none"
+
+    @property
+    def label(self) -> str:
+        """The model in a few characters, e.g. ``k2_image``."""
+        return f"k{self.n_objects}_{self.background}"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One choice in the tournament: the ``scene`` model, its motion ``rung``, the index of the judged
+    ``start`` it begins from, its field's temporal band ``f_max`` (None: model.f_max), the object its free
+    field turns with a turning part's axis read off the views (``turning``; None: none, prepare.py) and
+    whether it is a ``restart`` (at a lower rate, after the fit lost its way). ``scene_named``: the run
+    compares scene models, so its stages carry the scene's label."""
+
+    scene: SceneModel
     rung: str
-    simplicity: tuple[int, ...]
     start: int = 0
     f_max: float | None = None
     turning: int | None = None
+    restart: bool = False
+    scene_named: bool = False
+
+    @property
+    def key(self) -> str:
+        """The candidate within its scene model, e.g. ``free_band_start1_restart``: its random streams derive
+        from it (fitting.streams), so a scene model's candidates fit as they would were it the only one."""
+        if self.turning is not None:
+            key = f"free_turn{self.turning}"
+        else:
+            key = ("free_band" if self.f_max is not None else self.rung) + (f"_start{self.start}" if self.start else "")
+        return key + ("_restart" if self.restart else "")
+
+    @property
+    def name(self) -> str:
+        """A unique name within the run: the names of its stages (checkpoints, records) begin with it."""
+        return f"{self.scene.label}_{self.key}" if self.scene_named else self.key
+
+    @property
+    def simplicity(self) -> tuple[int, ...]:
+        """Lower is simpler: the ladder's order, then the band."""
+        return RUNGS.index(self.rung), int(self.f_max is not None)
+
+    @property
+    def continues_run(self) -> bool:
+        """The paper's field from the best judged start: it continues the run's own random streams, so that
+        ``motion=free`` with one start fits exactly as the method did before the ladder."""
+        return self.rung == "free" and self.start == 0 and self.f_max is None and self.turning is None \
+            and not self.restart
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of selection.csv: a candidate's model, how far it ran, its held-out misfit and its verdict."""
+
+    candidate: str
+    n_objects: int
+    background: str
+    rung: str
+    f_max: float | None
+    start: int
+    turning: int | None
+    restart: bool
+    steps: int
+    heldout_misfit: float
+    verdict: str
 
 
 @dataclass
@@ -90,10 +150,10 @@ class Entry:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The winner and one row per candidate (candidate, rung, steps, misfit, verdict) for selection.csv."""
+    """The winner and one row per candidate for selection.csv."""
 
     winner: Candidate
-    rows: list[dict]
+    rows: list[Row]
     reason: str
 
 
@@ -178,8 +238,9 @@ class Tournament:
                 why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
             else:
                 why = f"held-out misfit {e.misfit / best - 1:+.1%} against the best"
-            rows.append({"candidate": e.candidate.name, "rung": e.candidate.rung, "steps": e.steps,
-                         "heldout_misfit": e.misfit, "verdict": why})
+            c = e.candidate
+            rows.append(Row(c.name, c.scene.n_objects, c.scene.background, c.rung, c.f_max, c.start, c.turning,
+                            c.restart, e.steps, e.misfit, why))
         best_entry = min(finished, key=lambda e: e.misfit)
         reason = (f"{winner.candidate.name}: the best held-out misfit ({best:.4g})" if winner is best_entry else
                   f"{winner.candidate.name}: the simplest within {self.conf.tolerance:.0%} of the best "
