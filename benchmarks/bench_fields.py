@@ -14,9 +14,10 @@ import torch
 
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid
-from nct.method.conf import LossConf, OptimConf, RenderConf
-from nct.method.fields import ModelConf, build_field
-from nct.method.stages import SinogramFit, Views
+from nct.fields.build import build_field
+from nct.fields.conf import ModelConf
+from nct.fit.conf import LossConf, OptimConf, RenderConf
+from nct.fit.stages import SinogramFit, Views
 
 CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_terms": 0}), ("siren", {
     "width": 256, "temporal_width": 128, "n_terms": 128, "f_max": 3.0}))

@@ -1,5 +1,5 @@
 """What the data cannot tell (issue 27, items 3-4): the centroid trajectory of the project's circle
-read off its sinogram (`nct.method.trajectory`), against the truth, with the truth-free verdict.
+read off its sinogram (`nct.moments.trajectory`), against the truth, with the truth-free verdict.
 
 For each speed (degrees of orbit per gantry rotation) and scan length (rotations), the circle
 experiment (conf/phantom/circle.yaml, conf/scanner/parallel.yaml, conf/image/default.yaml) is
@@ -30,7 +30,7 @@ from matplotlib.figure import Figure
 from omegaconf import OmegaConf
 
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.method.trajectory import centroid_projections, determinacy, fit_trajectory
+from nct.moments.trajectory import centroid_projections, determinacy, fit_trajectory
 from nct.run.tables import markdown_table, write_csv
 from nct.scenes.phantoms import CircleConf, build_phantom
 from nct.scenes.shapes import EllipsePhantom
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> None:
     (args.out / "README.md").write_text(
         f"# Centroid trajectory and what the data cannot tell\n\n```\n{command.strip()}\n```\n\n"
         f"The circle experiment at 128 px, 720 views per rotation, {noise}. Errors are distances to the true "
-        f"centre over all views; the spread is the verdict's value (`nct.method.trajectory.determinacy`, "
+        f"centre over all views; the spread is the verdict's value (`nct.moments.trajectory.determinacy`, "
         f"threshold 1 px). Centroid projections against the truth: at most {centroid:.4f} px. "
         f"docs/figures/ambiguity.png: max sinogram difference between the two trajectories {difference:.1e}.\n\n"
         f"{table}\n")

@@ -49,10 +49,10 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
 from nct.cli import main as cli
 from nct.cli.main import CONFIG_MODULE
-from nct.method.conf import InitConf, LossConf, OptimConf, TrainerConf
-from nct.method.fields import ModelConf
+from nct.fields.conf import ModelConf
+from nct.fit.conf import LossConf, OptimConf, TrainerConf
+from nct.init.conf import InitConf
 from nct.method.reconstruct import reconstruct
-from nct.method.select import SelectionConf
 from nct.scenes.phantoms import (
     CircleConf,
     ComposedConf,
@@ -61,6 +61,7 @@ from nct.scenes.phantoms import (
     build_phantom,
 )
 from nct.scenes.simulate import simulate
+from nct.select.conf import SelectionConf
 
 TINY = [
     "image.size=32",
@@ -90,7 +91,7 @@ def one_thread() -> Iterator[None]:
     """One torch thread and one BLAS thread for the whole suite: a fit's numbers depend on the thread
     count, and in-process CLI runs would otherwise change it from one test to the next; BLAS threads
     on the suite's small matrices only wait for each other, and on a busy machine a 158² Cholesky
-    took 26 ms with two against 0.3 ms with one (method/trajectory.py's evidence search: 14 s, 0.15 s)."""
+    took 26 ms with two against 0.3 ms with one (moments/trajectory.py's evidence search: 14 s, 0.15 s)."""
     torch.set_num_threads(1)
     with threadpool_limits(1):
         yield

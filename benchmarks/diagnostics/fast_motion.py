@@ -33,9 +33,10 @@ import torch
 from scipy.ndimage import distance_transform_edt
 
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.method.fields import ModelConf, build_field
-from nct.method.lattice import lattice_points
-from nct.method.render import project_frames
+from nct.fields.build import build_field
+from nct.fields.conf import ModelConf
+from nct.fields.lattice import lattice_points
+from nct.fit.render import project_frames
 from nct.run.metrics import dice
 from nct.run.tables import markdown_table, write_csv
 from nct.scenes.phantoms import CircleConf, build_phantom

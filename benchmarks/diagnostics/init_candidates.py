@@ -25,10 +25,10 @@ from hydra import compose, initialize_config_module
 from hydra.errors import HydraException
 from omegaconf.errors import OmegaConfBaseException
 
-import nct.method.initialise
+import nct.init.starts
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
-from nct.method import segment as seg
+from nct.init import segmentation as seg
 from nct.run.config import NCTConf, validate
 from nct.run.pipeline import acquire, reconstruct_all
 
@@ -55,21 +55,21 @@ def run_config(path: Path | None, n_objects: int | None, overrides: list[str]) -
 
 
 def run_until(conf: NCTConf, hook: str) -> tuple:
-    """Run ``conf`` until it calls ``nct.method.initialise.<hook>``: that call's positional arguments."""
+    """Run ``conf`` until it calls ``nct.init.starts.<hook>``: that call's positional arguments."""
 
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
     acq = acquire(conf, np.random.default_rng(conf.seed))
-    real = getattr(nct.method.initialise, hook)
-    setattr(nct.method.initialise, hook, catch)
+    real = getattr(nct.init.starts, hook)
+    setattr(nct.init.starts, hook, catch)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             reconstruct_all(conf, acq, Path(tmp))
     except _Caught as caught:
         return caught.args_
     finally:
-        setattr(nct.method.initialise, hook, real)
+        setattr(nct.init.starts, hook, real)
     raise RuntimeError(f"the run ended without calling {hook}")
 
 

@@ -1,6 +1,6 @@
 """Where claimed levels matter: for the generalisation benchmark's scenes, the judged choices of
 levels with each mixture class's mean alone and with its claimed level beside it
-(`nct.method.segment.claimed_levels`), and whether the starts the run tries change.
+(`nct.init.segmentation.claimed_levels`), and whether the starts the run tries change.
 
 A scene whose starts are the same is reconstructed as without the claimed levels; the others are
 the ones to rerun with ``generalisation.py --only`` (benchmarks/results/background: session 43).
@@ -20,7 +20,7 @@ from unittest import mock
 
 import numpy as np
 
-from nct.method import segment as seg
+from nct.init import segmentation as seg
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))

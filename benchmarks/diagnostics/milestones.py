@@ -18,7 +18,10 @@ import json
 import math
 from pathlib import Path
 
-from nct.method.select import RUNGS, Candidate, SceneModel, SelectionConf, Tournament
+from nct.fields.conf import RUNGS
+from nct.select.candidates import Candidate, SceneModel
+from nct.select.conf import SelectionConf
+from nct.select.tournament import Tournament
 
 FIRST_BUDGET = 0.25  # the schedule replayed: the default motion.first_budget
 

@@ -23,7 +23,7 @@ from scipy.ndimage import label
 from skimage.feature import peak_local_max
 
 from nct.errors import InputError, MethodError
-from nct.method import background as bg
+from nct.init import background as bg
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from init_candidates import run_config, run_until  # noqa: E402

@@ -1,17 +1,24 @@
 """Overlap of the tiny small-object scene (tests/method/test_segment) over seeds: python smalls.py ROOT A:B [init_steps] [I0]."""
-import sys, numpy as np, torch, logging
+import logging
+import sys
+
+import numpy as np
+import torch
+
 root = sys.argv[1]; sys.path.insert(0, root); sys.path.insert(0, root + "/src")
 torch.set_num_threads(1)
 logging.basicConfig(level=logging.WARNING)
 for n in ("lightning", "lightning.pytorch", "lightning.fabric"): logging.getLogger(n).setLevel(logging.ERROR)
-import tests.conftest as C
 from dataclasses import replace
+
+import tests.conftest as C
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.method.conf import LossConf
+from nct.fit.conf import LossConf
 from nct.method.reconstruct import reconstruct
 from nct.run.metrics import dice
 from nct.scenes.phantoms import ComposedConf, build_phantom
 from nct.scenes.simulate import simulate
+
 GRID = ImageGrid(40)
 seeds = range(*map(int, sys.argv[2].split(':'))); steps = int(sys.argv[3]) if len(sys.argv) > 3 else 30
 noise = float(sys.argv[4]) if len(sys.argv) > 4 else None

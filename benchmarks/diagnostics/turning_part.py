@@ -5,7 +5,7 @@ scene whose moving part turns about a still centre beside still objects (scene06
 turning 172°/rotation beside two still ones), the whole mass's centroid stays put, so each view's
 central second moment is a still quadratic form plus the turning part's: A + B0 cos 2θ + C0 sin 2θ
 + B cos 2(θ − φ(t)). A grid of steady turns φ = φ0 + ωt (each a linear least-squares fit of the
-five) finds ω; the lone-object model (method/orientation.py, three terms) is fitted too. Prints
+five) finds ω; the lone-object model (moments/orientation.py, three terms) is fitted too. Prints
 both turns and their misfits against the true one, and the method's verdict (orientation.turning_part:
 held or not, the turn it reads). ``--scenes all``: every scene of two or more objects, one line each.
 
@@ -27,7 +27,7 @@ from scenes import Pose, draw_scene  # noqa: E402
 
 from nct.acquisition.geometry import ParallelGeometry  # noqa: E402
 from nct.acquisition.sinogram import Sinogram  # noqa: E402
-from nct.method.orientation import (  # noqa: E402
+from nct.moments.orientation import (
     orientation_path,
     second_moments,
     steady_turn,

@@ -148,8 +148,8 @@ def test_ellipse_list_is_off_centre():
 
 def test_subsets_and_unit_changes_keep_the_geometry():
     from nct.acquisition.sinogram import Sinogram
-    from nct.method.normalise import Units
-    from nct.method.prepare import subset
+    from nct.fit.problem import subset
+    from nct.fit.units import Units
 
     geometry = GEOMETRIES["fan-curved-offset"]
     sino = Sinogram(np.ones((4, geometry.n_bins), np.float32), np.arange(4.0), np.arange(4.0), geometry)

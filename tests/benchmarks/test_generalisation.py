@@ -18,7 +18,7 @@ import pytest
 from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.analysis.benchmarking import Job, Record
-from nct.method.segment import segmentations
+from nct.init.segmentation import segmentations
 from nct.physics.projector import fbp_frames
 from nct.run.metrics import dice
 from tests.conftest import load_benchmark as load

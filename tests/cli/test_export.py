@@ -17,7 +17,7 @@ from nct.run.job import run_job
 from tests.conftest import TINY, compose_config
 
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
-VARIANTS = {  # each in units of its own (normalise.py): the export maps back like the run
+VARIANTS = {  # each in units of its own (fit/units.py): the export maps back like the run
     "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", "image.extent=1.5"],
     # a still object: the static rung wins though fitted first
     "auto": ["motion.rungs=[static,free]", "phantom.displacement_deg=0", "phantom.intensity=3.0"],

@@ -10,7 +10,7 @@ import torch
 
 from nct.cli import main as cli
 from nct.errors import InputError
-from nct.method.trainer import check_accelerator
+from nct.fit.trainer import check_accelerator
 
 QUICK = ["debug=tiny", "logger=none", "method=fbp"]
 

@@ -11,33 +11,22 @@ import numpy as np
 import pytest
 import torch
 
-import nct.method.reconstruct as reconstruct_module
+import nct.select.race as race_module
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import DivergenceError
-from nct.method.conf import (
-    HeldoutConf,
-    InitConf,
-    LossConf,
-    OptimConf,
-    RenderConf,
-    TrainerConf,
-)
-from nct.method.fields import ModelConf
-from nct.method.initialise import Start
-from nct.method.prepare import (
-    heldout_standard_error,
-    rotations_since_start,
-    split_views,
-)
-from nct.method.reconstruct import candidates, reconstruct
-from nct.method.render import project_frames
-from nct.method.select import SceneModel, SelectionConf
+from nct.fields.conf import ModelConf
+from nct.fit.conf import HeldoutConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.fit.problem import heldout_standard_error, rotations_since_start, split_views
+from nct.fit.render import project_frames
+from nct.init.conf import InitConf
+from nct.method.reconstruct import reconstruct
 from nct.physics.projector import fbp_frames
 from nct.run.metrics import frame_metrics
 from nct.scenes.phantoms import CircleConf, EllipseConf, Signal, build_phantom
 from nct.scenes.simulate import add_poisson_noise, simulate
+from nct.select.conf import SelectionConf
 from tests.conftest import (
     GEOMETRIES,
     INIT,
@@ -225,14 +214,14 @@ def test_a_candidate_whose_fit_diverges_drops_out_and_the_tournament_goes_on(acq
     whole run failed. Now it drops out, its restart joins at half the rates, and the rest is unchanged."""
     sino, times = acquisition
     ladder = SelectionConf(rungs=["static", "free"])
-    honest = reconstruct_module.sinogram_fit
+    honest = race_module.sinogram_fit
 
     def static_diverges(prob, session, net, name, *args, **kwargs):
         if name == "static":
             raise DivergenceError("stage 'static_fit' diverged at step 3: loss nan")
         return honest(prob, session, net, name, *args, **kwargs)
 
-    monkeypatch.setattr(reconstruct_module, "sinogram_fit", static_diverges)
+    monkeypatch.setattr(race_module, "sinogram_fit", static_diverges)
     result = run(sino, times, motion=ladder)
     table = {r["candidate"]: r for r in result.selection["table"]}
     assert table["static"]["verdict"].startswith("diverged: stage 'static_fit'") and table["static"]["steps"] == 0
@@ -246,7 +235,7 @@ def test_the_run_fails_with_the_divergence_when_no_candidate_finishes(acquisitio
     def diverges(prob, session, net, name, *args, **kwargs):
         raise DivergenceError(f"stage '{name}_fit' diverged at step 3: loss nan")
 
-    monkeypatch.setattr(reconstruct_module, "sinogram_fit", diverges)
+    monkeypatch.setattr(race_module, "sinogram_fit", diverges)
     with pytest.raises(DivergenceError, match="stage 'free_fit' diverged"):
         run(*acquisition)
 
@@ -321,16 +310,3 @@ def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_marg
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))
     assert nct >= 0.93 and nct >= fbp + 0.08
-
-
-@pytest.mark.parametrize("rungs, turning, extra", [(["free"], 3, ["free_turn0", "free_turn1", "free_turn2"]),
-                                                   (["free"], 0, []), (["static", "rigid"], 2, [])])
-def test_a_held_part_axis_adds_one_turned_free_field_per_object(rungs, turning, extra):
-    """Which of K objects turns with a part's axis (prepare.py) is raced as the free rung from the best
-    judged start turning each of them, the same model as the unturned free field; no free rung, none."""
-    starts = [Start(np.zeros((1, 1, 2, 2)))] * 2
-    pool = candidates(SelectionConf(rungs=rungs), starts, span=1.0, scene=SceneModel(3), turning=turning)
-    assert [c.name for c in pool] == [f"{r}{s}" for r in rungs for s in ("", "_start1")] + extra
-    turned = [c for c in pool if c.turning is not None]
-    assert [c.turning for c in turned] == list(range(len(extra)))
-    assert all(c.start == 0 and c.simplicity == pool[0].simplicity for c in turned)

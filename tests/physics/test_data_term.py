@@ -9,7 +9,7 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
-from nct.method.normalise import Units
+from nct.fit.units import Units
 from nct.physics.data_term import estimate_i0, misfit, noise_std, view_noise
 from nct.scenes.phantoms import CircleConf, build_phantom
 from nct.scenes.simulate import add_poisson_noise, attenuation_scale, simulate

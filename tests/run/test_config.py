@@ -15,7 +15,8 @@ from omegaconf.errors import ConfigKeyError, ValidationError
 
 import nct
 from nct.errors import InputError
-from nct.method.conf import HeldoutConf, InitConf, OptimConf, RenderConf, TrainerConf
+from nct.fit.conf import HeldoutConf, OptimConf, RenderConf, TrainerConf
+from nct.init.conf import InitConf
 from nct.run import config
 from nct.run.config import NCTConf, validate
 from tests.conftest import compose_config

@@ -260,7 +260,7 @@ def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg
     metrics = read(tmp_path / "metrics.json")
     assert metrics["model"]["motion"] == "static" and metrics["selection"]["winner"].startswith("static")
     rows = (tmp_path / "selection.csv").read_text().splitlines()
-    assert rows[0] == "candidate,rung,steps,heldout_misfit,verdict" and len(rows) == 1 + len(metrics["selection"]["table"])
+    assert rows[0] == "candidate,n_objects,background,rung,f_max,start,turning,restart,steps,heldout_misfit,verdict" and len(rows) == 1 + len(metrics["selection"]["table"])
     trace = metrics["trace"]
     fitted_last = [r["stage"] for r in trace if r["stage"] != "output"][-1]
     assert trace[-1]["stage"] == ("output" if not fitted_last.startswith("static") else fitted_last)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.method.conf import HeldoutConf
+from nct.fit.conf import HeldoutConf
 from nct.physics.conf import FBPConf
 from nct.run.config import SuspectConf
 from nct.run.suspect import (

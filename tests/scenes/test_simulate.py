@@ -11,7 +11,13 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.physics.projector import project
-from nct.scenes.phantoms import CircleConf, ComposedConf, LettersConf, StaticConf, build_phantom
+from nct.scenes.phantoms import (
+    CircleConf,
+    ComposedConf,
+    LettersConf,
+    StaticConf,
+    build_phantom,
+)
 from nct.scenes.simulate import attenuation_scale, simulate
 from tests.conftest import GEOMETRIES, closed_form_sinogram, rel_l2, still
 

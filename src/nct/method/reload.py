@@ -21,13 +21,15 @@ from omegaconf import DictConfig, OmegaConf
 from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import InputError
-from nct.method.conf import ModelConf, OptimConf, RenderConf
-from nct.method.fields import SpaceTimeField, build_field
-from nct.method.normalise import Units
-from nct.method.prepare import rotations_since_start, rotations_spanned
+from nct.fields.base import SpaceTimeField
+from nct.fields.build import build_field
+from nct.fields.conf import ModelConf
+from nct.fit.conf import OptimConf, RenderConf
+from nct.fit.problem import rotations_since_start, rotations_spanned
+from nct.fit.render import intensity
+from nct.fit.stages import FieldStage
+from nct.fit.units import Units
 from nct.method.reconstruct import field_frames
-from nct.method.render import intensity
-from nct.method.stages import FieldStage
 
 # A field saved before fields could turn (session 40), turn one part of several (41) or hold a darker
 # nested object (42) renders as fitted
@@ -39,7 +41,7 @@ class FittedRun:
     """What rendering a run's field needs.
 
     field: the fitted field with its a(k) (method units); units: the
-    run's units (normalise.py); grid: the run's own grid (data units); clock: seconds ->
+    run's units (fit/units.py); grid: the run's own grid (data units); clock: seconds ->
     rotations since the first view; span: (first, last) second of the acquisition; render: the
     run's occupancy settings; fps: the run's movie frame rate; checkpoint: the file loaded.
     """

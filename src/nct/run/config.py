@@ -21,18 +21,16 @@ from omegaconf.errors import OmegaConfBaseException
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.errors import InputError, require
-from nct.method.conf import (
+from nct.fields.conf import ModelConf
+from nct.fit.conf import (
     LOGGERS,
-    BackgroundConf,
     HeldoutConf,
-    InitConf,
     LossConf,
-    ModelConf,
     OptimConf,
     RenderConf,
     TrainerConf,
 )
-from nct.method.select import SelectionConf
+from nct.init.conf import BackgroundConf, InitConf
 from nct.physics.conf import FBPConf
 from nct.scenes.phantoms import (
     CircleConf,
@@ -41,6 +39,7 @@ from nct.scenes.phantoms import (
     LettersConf,
     StaticConf,
 )
+from nct.select.conf import SelectionConf
 
 
 @dataclass

@@ -102,7 +102,9 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
     record("running")
     try:
-        from nct.run.pipeline import run  # lazy: its imports are ~3 s of start-up, after validation
+        from nct.run.pipeline import (
+            run,  # lazy: its imports are ~3 s of start-up, after validation
+        )
 
         result, warnings = run(conf, cfg, out_dir, started)
     except MethodError as err:  # expected: the reason is the whole story
@@ -118,7 +120,9 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
 
 
 def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
-    from nct.run.metrics import quality_line  # lazy: scikit-image's metrics, loaded by the pipeline by then
+    from nct.run.metrics import (
+        quality_line,  # lazy: scikit-image's metrics, loaded by the pipeline by then
+    )
 
     for name in ("fbp", "nct"):
         if name in result:

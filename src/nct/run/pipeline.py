@@ -17,11 +17,15 @@ from omegaconf import DictConfig
 from nct.acquisition.io import load_sinogram, save_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.moments.determinacy import (
+    determinacy_warnings,
+    motion_determinacy,
+    turn_warnings,
+)
 from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory
 from nct.run.consistency import check_geometry, geometry_warnings
-from nct.run.determinacy import determinacy_warnings, motion_determinacy, turn_warnings
 from nct.run.job import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv

@@ -17,8 +17,8 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
-from nct.method.conf import HeldoutConf
-from nct.method.prepare import split_views, subset
+from nct.fit.conf import HeldoutConf
+from nct.fit.problem import split_views, subset
 from nct.physics.conf import FBPConf
 from nct.physics.data_term import MAD_TO_STD
 from nct.physics.projector import fbp_frames, project

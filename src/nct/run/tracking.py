@@ -100,7 +100,7 @@ def write_trace(tb_dir: Path, trace: list[dict]) -> None:
 
 
 def write_motion(tb_dir: Path, motion: dict) -> None:
-    """metrics.json's ``motion_determinacy`` (`nct.run.determinacy`) as text, and its spread along the
+    """metrics.json's ``motion_determinacy`` (`nct.moments.determinacy`) as text, and its spread along the
     rays as the ``motion/ray_spread_px`` scalar."""
     verdict = "determined" if motion["determined"] else "NOT determined: more rotations or a motion prior needed"
     with SummaryWriter(log_dir=str(tb_dir)) as w:

@@ -1,0 +1,323 @@
+"""Running one optimisation stage in its own Lightning Trainer: the index data it is served,
+the callbacks (early stops, snapshots for the Dice-against-time curve, divergence check,
+TensorBoard images), its logger, checkpoint and resume.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import lightning as L
+import numpy as np
+import torch
+from lightning.pytorch.callbacks import Callback, LearningRateMonitor
+from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
+from lightning.pytorch.utilities.warnings import PossibleUserWarning
+from torch import Tensor
+from torch.utils.data import DataLoader, IterableDataset
+
+from nct.errors import DivergenceError, InputError
+from nct.fit.conf import LOGGERS, TrainerConf
+from nct.fit.progress import StageBar, StageLog, log_stage, show_bar
+from nct.fit.render import intensity
+from nct.fit.stages import (
+    FieldStage,
+    HeldoutHistory,
+    InitFit,
+    SinogramFit,
+    logging_step,
+)
+
+log = logging.getLogger(__name__)
+RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
+
+
+class IndexBatches(IterableDataset):
+    """``steps`` random minibatches of ``batch`` indices drawn without replacement from ``pool``."""
+
+    def __init__(self, pool: np.ndarray, batch: int, steps: int, seed: int) -> None:
+        self.pool, self.batch, self.steps, self.seed = pool, min(batch, len(pool)), steps, seed
+
+    def __len__(self) -> int:
+        return self.steps
+
+    def __iter__(self) -> Iterator[Tensor]:
+        rng = np.random.default_rng(self.seed)
+        for _ in range(self.steps):
+            yield torch.from_numpy(rng.choice(self.pool, size=self.batch, replace=False))
+
+
+class IndexDataModule(L.LightningDataModule):
+    """Serves ``IndexBatches``: the timepoints (views or SDF frames) of each step; and the
+    held-out views ``held`` in chunks for validation (none: no validation)."""
+
+    def __init__(self, pool: np.ndarray, batch: int, steps: int, seed: int, held: np.ndarray | None = None,
+                 chunk: int = 64) -> None:
+        super().__init__()
+        self.batches = IndexBatches(pool, batch, steps, seed)
+        self.held = [torch.from_numpy(part) for part in np.array_split(held, -(-len(held) // chunk))] \
+            if held is not None and len(held) else []
+
+    def train_dataloader(self) -> DataLoader:
+        return DataLoader(self.batches, batch_size=None)
+
+    def val_dataloader(self) -> DataLoader:
+        return DataLoader(self.held, batch_size=None)
+
+
+class MinLossStop(Callback):
+    """Stop SinogramFit once its sinogram loss falls below ``min_loss`` (Algorithm 4's minLoss)."""
+
+    def __init__(self, min_loss: float) -> None:
+        self.min_loss = min_loss
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        if self.min_loss > 0 and float(outputs["sinogram"]) < self.min_loss:
+            trainer.should_stop = True
+
+
+class HeldoutStop(Callback):
+    """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
+    [(step, loss)] so far (the tournament's rule, select/tournament.py)."""
+
+    def __init__(self, stops: Callable[[HeldoutHistory], bool]) -> None:
+        self.stops = stops
+
+    def on_validation_end(self, trainer, pl_module) -> None:
+        if self.stops(pl_module.heldout_history):
+            trainer.should_stop = True
+
+
+class RunClock:
+    """Seconds since a run began, less the time spent taking snapshots (``SnapshotLog``)."""
+
+    def __init__(self) -> None:
+        self.start, self.paused = time.perf_counter(), 0.0
+
+    def seconds(self) -> float:
+        return time.perf_counter() - self.start - self.paused
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The field's weights after ``step`` steps of ``stage`` (its module), ``seconds`` into the run."""
+
+    name: str
+    step: int
+    seconds: float
+    stage: FieldStage
+    state: dict[str, Tensor]
+
+
+def snapshot(name: str, step: int, stage: FieldStage, clock: RunClock) -> Snapshot:
+    """A copy of ``stage``'s field now; the copying's time is left out of ``clock``."""
+    start = time.perf_counter()
+    state = {k: v.detach().clone() for k, v in stage.field.state_dict().items()}
+    taken = Snapshot(name, step, clock.seconds(), stage, state)
+    clock.paused += time.perf_counter() - start
+    return taken
+
+
+class SnapshotLog(Callback):
+    """Copy the stage's field into ``into`` before its first step, every ``every`` steps and after
+    its last: the points of a run's Dice-against-time curve, scored once the run is over (no stage
+    sees the truth). The copies' own time is left out of ``clock``."""
+
+    def __init__(self, name: str, every: int, into: list[Snapshot], clock: RunClock) -> None:
+        self.name, self.every, self.into, self.clock = name, every, into, clock
+
+    def take(self, trainer, pl_module: FieldStage) -> None:
+        self.into.append(snapshot(self.name, int(trainer.global_step), pl_module, self.clock))
+
+    def on_train_start(self, trainer, pl_module) -> None:
+        self.take(trainer, pl_module)
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        if trainer.global_step % self.every == 0:
+            self.take(trainer, pl_module)
+
+    def on_train_end(self, trainer, pl_module) -> None:
+        if self.into[-1].step != trainer.global_step:
+            self.take(trainer, pl_module)
+
+
+class DivergenceCheck(Callback):
+    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss.
+    Checked on the Trainer's logging steps and the last: reading a loss makes the host wait for
+    the device, so not every step."""
+
+    def __init__(self, stage: str, factor: float) -> None:
+        self.stage, self.factor, self.first = stage, factor, None
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        loss = (outputs["loss"] if isinstance(outputs, dict) else outputs).detach()
+        self.first = loss if self.first is None else self.first
+        if not logging_step(trainer, batch_idx):
+            return
+        loss, first = float(loss), float(self.first)
+        if not math.isfinite(loss) or loss > self.factor * first:
+            lr = trainer.optimizers[0].param_groups[0]["lr"]
+            raise DivergenceError(
+                f"stage '{self.stage}' diverged at step {trainer.global_step}: loss {loss:.4g} (first step "
+                f"{first:.4g}, limit {self.factor:g}x) at learning rate {lr:.3g}; "
+                "lower optim.lr or raise optim.warmup_steps"
+            )
+
+
+def evenly(times: Tensor, n: int) -> Tensor:
+    """Indices of n evenly spaced entries of ``times`` [T]."""
+    return torch.linspace(0, times.shape[0] - 1, n).round().long().to(times.device)
+
+
+@torch.no_grad()
+def init_preview(stage: InitFit, n: int) -> Tensor:
+    """Target | fitted SDF > 0 at n evenly spaced target times: [2, n, H, W] in [0, 1]."""
+    pick = evenly(stage.times, n)
+    sdf = stage.grid_sdf(stage.times[pick])
+    return torch.stack([(stage.targets[pick] > 0).any(1), (sdf > 0).any(1)]).float()
+
+
+@torch.no_grad()
+def fit_preview(stage: SinogramFit, n: int) -> Tensor:
+    """Intensity frames at n evenly spaced view times, at the current band: [1, n, H, W]."""
+    sdf = stage.grid_sdf(stage.times[evenly(stage.times, n)])
+    return intensity(sdf, stage.intensities, stage.band(), stage.render_conf.mu)[None]
+
+
+@torch.no_grad()
+def fit_residual(stage: SinogramFit, n: int) -> Tensor:
+    """Rendered minus measured sinogram at n evenly spaced views, over the data's max: [n, n_bins]."""
+    pick = evenly(stage.times, n)
+    sdf = stage.grid_sdf(stage.times[pick])
+    return (stage.render(sdf, pick, stage.band()) - stage.values[pick]) / stage.values.abs().max().clamp_min(1e-12)
+
+
+class ImageLog(Callback):
+    """Every ``every`` steps (and at the end), frames over time and (SinogramFit) the sinogram
+    residual to TensorBoard, rendered from the stage's field; the stages only optimise."""
+
+    def __init__(self, stage: str, every: int, n_frames: int = 8, n_views: int = 90) -> None:
+        self.stage, self.every, self.n_frames, self.n_views = stage, every, n_frames, n_views
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        if trainer.global_step % self.every == 0 or trainer.global_step >= trainer.max_steps:
+            self.log_images(trainer, pl_module)
+
+    def log_images(self, trainer, pl_module: FieldStage) -> None:
+        writer = trainer.logger.experiment
+        fitting = isinstance(pl_module, SinogramFit)
+        rows = (fit_preview if fitting else init_preview)(pl_module, self.n_frames)  # [R, n, H, W]
+        strip = torch.cat([torch.cat(list(row), dim=1) for row in rows], dim=0)
+        top = float(strip.max().clamp_min(1e-6))
+        writer.add_image(f"{self.stage}/frames", (strip / top).clamp(0, 1)[None], trainer.global_step)
+        if fitting:
+            res = fit_residual(pl_module, self.n_views)
+            writer.add_image(f"{self.stage}/sinogram_residual", (0.5 + 0.5 * res).clamp(0, 1)[None],
+                             trainer.global_step)
+
+
+def check_accelerator(accelerator: str) -> None:
+    """Refuse a GPU accelerator that torch cannot use, naming the fix (Lightning would fail deep inside)."""
+    if accelerator in ("gpu", "cuda") and not (torch.cuda.is_available() or torch.backends.mps.is_available()):
+        build = "a CPU-only build" if torch.version.cuda is None else "a CUDA build but sees no GPU"
+        raise InputError(f"trainer.accelerator={accelerator}: torch {torch.__version__} is {build}; install a CUDA "
+                         "build of torch (https://pytorch.org/get-started/locally/) on a machine with an NVIDIA GPU, "
+                         "or use trainer=cpu")
+
+
+@contextmanager
+def quiet_lightning() -> Iterator[None]:
+    """Silence Lightning's per-Trainer banners (accelerator, tips, "max_steps reached"), the warning
+    about our sized iterable dataset, which has no workers to confuse, and its "possible mistakes"
+    (data workers, "GPU available but not used": the run's accelerator is ``trainer=``'s choice)."""
+    lightning_log = logging.getLogger("lightning.pytorch")
+    level = lightning_log.level
+    lightning_log.setLevel(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*IterableDataset.*__len__.*")
+            warnings.filterwarnings("ignore", message=".*LeafSpec.*")
+            warnings.filterwarnings("ignore", category=PossibleUserWarning)
+            yield
+    finally:
+        lightning_log.setLevel(level)
+
+
+def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, conf: TrainerConf,
+              log_dir: Path | None, logger: str, extra_callbacks: tuple[Callback, ...] = (),
+              check_every: int = 0, resume: bool = False) -> dict:
+    """Fit ``module`` for ``steps`` in a fresh Trainer with its own logger version and checkpoint
+    folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time.
+    ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``.
+    With held-out views in ``data`` and ``check_every`` > 0, Lightning validates every
+    ``check_every`` steps (``val/heldout_loss``). ``resume``: a stage that finished before in
+    ``log_dir`` is not run again; its checkpoint is loaded and its record returned (each stage
+    starts a fresh optimiser, so this continues a killed run exactly)."""
+    if logger not in LOGGERS:
+        raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+    check_accelerator(conf.accelerator)
+    start = time.perf_counter()
+    if steps == 0:
+        return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
+    folder = Path(log_dir) / "checkpoints" / name if log_dir is not None else None
+    if resume and folder is not None and (folder / RECORD).is_file():
+        weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
+        try:
+            module.load_state_dict(weights)
+        except RuntimeError as err:
+            detail = str(err).splitlines()[1].strip() if len(str(err).splitlines()) > 1 else str(err)
+            raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
+                             f"({detail}); rerun it in a new folder") from None
+        log.info("resume: stage %s loaded from %s", name, folder)
+        record = json.loads((folder / RECORD).read_text())
+        module.heldout_history = [(int(step), float(loss)) for step, loss in record.get("heldout_history", [])]
+        return record | {"resumed": True}
+    every = check_every if data.held else 0
+    callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
+    bar = show_bar(conf.progress_bar)
+    callbacks.append(StageBar(name) if bar else StageLog(name, conf.progress_every_s))
+    stage_logger: TensorBoardLogger | CSVLogger | bool = False
+    if log_dir is not None and logger == "tensorboard":
+        stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
+        callbacks += [LearningRateMonitor("step"), ImageLog(name, conf.image_every_n_steps)]
+    elif log_dir is not None and logger == "csv":
+        stage_logger = CSVLogger(str(log_dir), name="csv", version=name)
+        callbacks.append(LearningRateMonitor("step"))
+    with quiet_lightning():
+        trainer = L.Trainer(
+            accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
+            logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
+            enable_progress_bar=bar, enable_model_summary=False,
+            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0,
+            **validation(steps, every),
+        )
+        trainer.fit(module, train_dataloaders=data.train_dataloader(),
+                    val_dataloaders=data.val_dataloader() if every else None)
+        if folder is not None:
+            trainer.save_checkpoint(folder / "last.ckpt")
+    losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
+              if k.startswith(("train/", "val/"))}
+    result = {"steps": int(trainer.global_step), "planned_steps": steps, "losses": losses,
+              "wall_time_s": time.perf_counter() - start}
+    if module.heldout_history:
+        result["heldout_history"] = [list(point) for point in module.heldout_history]
+    if folder is not None:
+        (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
+    if not bar:
+        log_stage(name, result)
+    return result
+
+
+def validation(steps: int, every: int) -> dict:
+    """Trainer settings that validate every ``every`` steps (0: never)."""
+    if every <= 0:
+        return {"limit_val_batches": 0}
+    return {"val_check_interval": min(every, steps), "check_val_every_n_epoch": None}

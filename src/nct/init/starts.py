@@ -1,0 +1,78 @@
+"""Where fits start (Algorithms 1-2): segmentations of the FBP frames, each as SDF frames InitFit fits.
+
+With several objects, a segmentation can hand an object to the background or split one in two, and
+a fit cannot create an object no field starts on: the judge's ``init.starts`` best segmentations
+are all offered to the tournament (select/tournament.py). One object starts on the brightest structure whichever
+segmentation wins, and the fit moves its boundary, so one start is enough there.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+
+import numpy as np
+import torch
+
+from nct.fields.sightings import Sightings, mask_sightings
+from nct.fit.problem import Problem
+from nct.fit.session import Start
+from nct.init.background import lone_mover, moving_problem, static_start
+from nct.init.conf import BackgroundConf, InitConf
+from nct.init.judge import sinogram_judge
+from nct.init.sdf import masks_to_sdf
+from nct.init.segmentation import segmentations
+
+log = logging.getLogger(__name__)
+
+
+def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
+                background: BackgroundConf | None = None) -> list[Start]:
+    """The starts of a run, best judged first: the judge's ``init.starts`` best segmentations with
+    K >= 2, the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain
+    the fitted views, which also gives a(k)). With ``background=image`` the objects are sought in
+    what moves, over a static background's start (background.py)."""
+    static = None
+    if background is not None and background.name == "image":
+        static = static_start(prob.fbp, background.moving_share)
+        if not static.moving.any():
+            log.warning("background=image: nothing moves in these data (the FBP frames do not change over the "
+                        "scan): the background holds the whole image and the objects start empty")
+        moved = moving_problem(prob, static)
+        if n_objects == 1 and static.moving.any():
+            moved = lone_mover(prob, moved, static.moving)
+        prob = moved
+    judge = None
+    if init.levels == "sinogram":
+        fitted = torch.from_numpy(prob.fit_views)
+        views = prob.views
+        judge = sinogram_judge(prob.init_times, views.values[fitted], views.angles[fitted], views.times[fitted],
+                               views.geometry, prob.grid.extent)
+    ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
+    chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
+    return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
+                  sightings(prob, s.masks), None if static is None else static.image) for s in chosen]
+
+
+def sightings(prob: Problem, masks: np.ndarray) -> Sightings:
+    """Where the objects of ``masks`` [F, K, H, W] were seen at ``prob.init_times``: each mask's centroid
+    and principal axis; a lone object's centre is its mass centroid read off the views' first
+    moments (``prob.centres``; trajectory.py, exact in parallel beam, where each FBP frame's
+    half-rotation window lags fast motion, 10-24 px along the rays at 200 deg/rotation; over a
+    background, that path scaled into focus: background.py), held by the fit; an elongated rigid one's
+    angle is its axis read off their second moments (``prob.orientations``; orientation.py), turned with it."""
+    seen = mask_sightings(masks, prob.init_times)
+    if prob.centres is None or masks.shape[1] > 1:
+        return seen
+    seen = replace(seen, centres=torch.from_numpy(prob.centres[:, None, :]).float(), held=True)
+    if prob.orientations is None:
+        return seen
+    return replace(seen, angles=torch.from_numpy(prob.orientations[:, None]).float(), turned=0)
+
+
+def turned_start(prob: Problem, start: Start, k: int) -> Start:
+    """``start`` with object ``k`` turning with the part's axis read off the views (``prob.part_orientations``;
+    orientation.turning_part) about its masks' mean centre: where a free field turning it starts."""
+    angles = start.seen.angles.clone()
+    angles[:, k] = torch.from_numpy(prob.part_orientations).float()
+    return replace(start, seen=replace(start.seen, angles=angles, turned=k))

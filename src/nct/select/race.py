@@ -1,0 +1,118 @@
+"""The race: every candidate of a run's scene models fitted (InitFit, then SinogramFit) and entered in the
+tournament (tournament.py), restarts joining where a fit lost its way."""
+
+from __future__ import annotations
+
+import copy
+import logging
+from dataclasses import replace
+
+import numpy as np
+import torch
+
+from nct.errors import DivergenceError
+from nct.fields.base import SpaceTimeField
+from nct.fields.build import build_field
+from nct.fields.conf import ModelConf
+from nct.fit.conf import OptimConf, RenderConf
+from nct.fit.problem import Problem
+from nct.fit.session import Fitted, Session, at_rate, init_fit, sinogram_fit, streams
+from nct.init.starts import turned_start
+from nct.select.candidates import Candidate, candidates
+from nct.select.conf import SelectionConf
+from nct.select.scene import SceneSetup
+from nct.select.tournament import Tournament, Verdict
+
+log = logging.getLogger(__name__)
+RESTART_RATE = 0.5  # a fit whose misfit ends above its start is tried again at this share of its rates
+EMPTY = 0.999  # a misfit above this share of an empty image's explains nothing: a field faded to nothing renders
+# its sigmoid tails and scores a hair below the empty image (the tiny test's small disc: 1 - 2e-8)
+
+
+def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int, motion: SelectionConf,
+                optim: OptimConf, render: RenderConf,
+                ) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField]]:
+    """Fit every candidate of every scene model and choose one (select/tournament.py). All InitFits run first; the sinogram
+    fits then run from the best-started candidate on, so that the later ones race the best histories. A fit that
+    ends above where it started, or explains the check views no better than an empty image, has lost its way
+    (an object fell out of the band, where no gradient reaches it): a restart joins the tournament at
+    ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own
+    weights and InitFit) where that InitFit explained nothing either. A fit that diverges drops out (its
+    restart joins likewise); the run fails with its error only when no candidate finishes. Each candidate
+    draws from its own streams (fitting.streams); the paper's field continues its scene model's generator."""
+    by_model = {s.model: s for s in setups}
+    nets: dict[Candidate, SpaceTimeField] = {}
+    started: dict[Candidate, tuple[float, dict, np.random.Generator]] = {}
+
+    def start(cand: Candidate) -> None:
+        setup = by_model[cand.scene]
+        rng, torch_seed = (setup.rng, seed) if cand.continues_run else streams(seed, cand.key)
+        with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
+            torch.manual_seed(torch_seed)
+            conf = model if cand.f_max is None else replace(model, f_max=cand.f_max)
+            nets[cand] = net = build_field(conf, cand.scene.n_objects, torch.Generator().manual_seed(torch_seed),
+                                           cand.rung, setup.prob.span)
+            begin = setup.starts[cand.start]
+            begin = begin if cand.turning is None else turned_start(setup.prob, begin, cand.turning)
+            misfit = init_fit(setup.prob, session, net, cand.name, begin, optim.init_steps, optim, render, rng,
+                              optim.coarse_size)
+        started[cand] = misfit, copy.deepcopy(net.state_dict()), rng
+
+    named = len(setups) > 1
+    pool = [c for s in setups for c in candidates(
+        motion, len(s.starts), s.prob.span, s.model, 0 if s.prob.part_orientations is None else s.model.n_objects, named)]
+    for cand in pool:
+        start(cand)
+    tournament = Tournament(optim.fit_steps, session.check_every if len(setups[0].prob.held_views) else 0, motion)
+    empty = EMPTY * setups[0].prob.empty_misfit()
+    fitted: dict[Candidate, Fitted] = {}
+    diverged: DivergenceError | None = None  # the first: the run's error when no candidate finishes
+    queue = sorted(pool, key=lambda c: started[c][0])
+    while queue:
+        cand = queue.pop(0)
+        base = replace(cand, restart=False)
+        if cand.restart and started[base][0] >= empty:
+            start(cand)
+        elif cand.restart:
+            nets[cand], started[cand] = nets[base], started[base]
+        lost, done = _fit(cand, by_model[cand.scene].prob, session, nets[cand], started[cand], seed, tournament,
+                          (optim, render), empty)
+        if isinstance(done, DivergenceError):
+            diverged = diverged or done
+        else:
+            fitted[cand] = done
+        if lost and not cand.restart:
+            log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
+            queue.insert(0, replace(cand, restart=True))
+    if diverged is not None and all(e.pruned for e in tournament.entries):
+        raise diverged
+    return tournament.verdict(), fitted, nets
+
+
+def _fit(cand: Candidate, prob: Problem, session: Session, net: SpaceTimeField,
+         started: tuple[float, dict, np.random.Generator], seed: int, tournament: Tournament,
+         settings: tuple[OptimConf, RenderConf], empty: float) -> tuple[str | None, Fitted | DivergenceError]:
+    """The sinogram fit of ``cand`` from its InitFit (``started``: misfit, state, generator), entered in the
+    ``tournament``; returns why it lost its way (None: it did not) and the fit, or the error it diverged with."""
+    optim, render = settings
+    misfit0, state, rng = started
+    net.load_state_dict(state)
+    try:
+        with torch.random.fork_rng():
+            torch.manual_seed(seed if cand.continues_run else streams(seed, cand.key)[1])
+            done = sinogram_fit(prob, session, net, cand.name, optim.fit_steps,
+                                at_rate(optim, RESTART_RATE if cand.restart else 1.0), render, rng, optim.coarse_size,
+                                tournament.stops(cand))
+    except DivergenceError as err:  # seen on a GPU: a band candidate at step 100, the free field finished
+        session.stages[f"{cand.name}_fit"] = {"verdict": f"diverged: {err}"}
+        tournament.record(cand, [], 0, float("inf"), failed=f"diverged: {err}")
+        lost = f"{err}; it drops out of the tournament"
+        if cand.restart:
+            log.warning("%s", lost)
+        return lost, err
+    entry = tournament.record(cand, done.history, done.steps, done.misfit)
+    session.stages[f"{cand.name}_fit"]["verdict"] = entry.pruned or "finished"
+    lost = (f"stage {cand.name}_fit: its misfit went from {misfit0:.3g} to {done.misfit:.3g} (an empty "
+            f"image's: {empty:.3g})" if entry.pruned is None and (done.misfit > misfit0 or done.misfit >= empty)
+            else None)
+    return lost, done

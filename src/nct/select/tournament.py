@@ -1,0 +1,152 @@
+"""One tournament for every choice the method makes from data (motion rung, temporal band, start, restart).
+
+Candidates are fitted one after another, simplest first, and scored on the held-out views, which
+no fit sees. Successive halving, run sequentially (as Optuna's pruner does): the milestones of the
+schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops where,
+were the misfits to stay as they stand there, parsimony would not choose it: above (1 + ``tolerance``) x
+a freer model's misfit, above a candidate's of its own model, or above a simpler model's over
+(1 + ``tolerance``), each by more than ``milestone_margin`` (a near tie so early is no forecast). So a fit
+that cannot win costs only the steps to its first losing milestone. Parsimony then picks the model: the
+simplest whose best finished candidate (over its starts and restarts) is within (1 + ``tolerance``) of
+the best, and that candidate wins. The table
+of every candidate (``Verdict.rows``) is written as selection.csv. No truth is read.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from nct.fit.stages import HeldoutHistory
+from nct.select.candidates import Candidate
+from nct.select.conf import SelectionConf
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of selection.csv: a candidate's model, how far it ran, its held-out misfit and its verdict."""
+
+    candidate: str
+    n_objects: int
+    background: str
+    rung: str
+    f_max: float | None
+    start: int
+    turning: int | None
+    restart: bool
+    steps: int
+    heldout_misfit: float
+    verdict: str
+
+
+@dataclass
+class Entry:
+    """A fitted candidate: the steps it ran, its held-out ``history`` and its final ``misfit``
+    and ``pruned``: why it stopped at a milestone (None: it finished)."""
+
+    candidate: Candidate
+    steps: int
+    history: HeldoutHistory
+    misfit: float
+    pruned: str | None = None
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The winner and one row per candidate for selection.csv."""
+
+    winner: Candidate
+    rows: list[Row]
+    reason: str
+
+
+class Tournament:
+    """Sequential successive halving over fits of ``steps`` steps whose held-out views are scored
+    every ``check_every`` steps (the milestones fall on those checks; 0: none), then parsimony."""
+
+    def __init__(self, steps: int, check_every: int, conf: SelectionConf) -> None:
+        self.steps, self.conf = steps, conf
+        self.entries: list[Entry] = []
+        self.milestones: list[int] = []
+        budget = conf.first_budget * steps
+        while check_every > 0 and budget < steps:
+            step = math.ceil(budget / check_every) * check_every
+            if step < steps and step not in self.milestones:
+                self.milestones.append(step)
+            budget *= 2
+
+    def _at(self, history: HeldoutHistory, step: int) -> float | None:
+        """The misfit of the last check at or before ``step`` (None: no check yet)."""
+        due = [loss for at, loss in history if at <= step]
+        return due[-1] if due else None
+
+    def to_win_at(self, candidate: Candidate, step: int) -> float:
+        """The misfit ``candidate`` must not exceed at ``step`` to be chosen were the recorded candidates'
+        misfits there final (inf: none reached it): parsimony's bound against each of them."""
+        bounds = []
+        for e in self.entries:
+            seen = self._at(e.history, step) if e.steps >= step else None
+            if seen is None:
+                continue
+            other = e.candidate.simplicity
+            factor = (1 + self.conf.tolerance) ** ((other > candidate.simplicity) - (other < candidate.simplicity))
+            bounds.append(seen * factor)
+        return min(bounds, default=math.inf)
+
+    def verdict_at(self, candidate: Candidate, history: HeldoutHistory) -> str | None:
+        """Why ``candidate``'s fit with this ``history`` stops now (None: it goes on): its latest check is a
+        milestone where its misfit is above (1 + ``milestone_margin``) x what it would need to win (``to_win_at``)."""
+        if not history:
+            return None
+        step, loss = history[-1]
+        if step not in self.milestones:
+            return None
+        bound = self.to_win_at(candidate, step)
+        if loss > (1 + self.conf.milestone_margin) * bound:
+            behind = f"{loss / bound - 1:.1%}" if bound > 0 else "far"  # bound 0: another fit explained every view
+            return f"stopped at step {step}: held-out misfit {loss:.4g}, {behind} above the {bound:.4g} it needed to win"
+        return None
+
+    def stops(self, candidate: Candidate) -> Callable[[HeldoutHistory], bool]:
+        """The rule for ``candidate``'s fit (a HeldoutStop callback's): stop where ``verdict_at`` says."""
+        return lambda history: self.verdict_at(candidate, history) is not None
+
+    def record(self, candidate: Candidate, history: HeldoutHistory, steps: int, misfit: float,
+               failed: str | None = None) -> Entry:
+        """Enter a fitted candidate; one that stopped before ``steps`` is pruned (its misfit kept for the table),
+        one whose fit ``failed`` (why, e.g. it diverged) is pruned for that reason."""
+        pruned = failed or (self.verdict_at(candidate, history) if steps < self.steps else None)
+        entry = Entry(candidate, steps, list(history), misfit, pruned)
+        self.entries.append(entry)
+        return entry
+
+    def verdict(self) -> Verdict:
+        """Parsimony among the finished candidates: the simplest within (1 + tolerance) of the best."""
+        finished = [e for e in self.entries if e.pruned is None and math.isfinite(e.misfit)]
+        if not finished:
+            raise ValueError("no candidate finished its fit")
+        best = min(e.misfit for e in finished)
+        bound = (1 + self.conf.tolerance) * best
+        model = min(e.candidate.simplicity for e in finished if e.misfit <= bound)
+        winner = min((e for e in finished if e.candidate.simplicity == model), key=lambda e: e.misfit)
+        rows = []
+        for e in self.entries:
+            if e is winner:
+                why = "winner"
+            elif e.pruned:
+                why = e.pruned
+            elif e.candidate.simplicity == winner.candidate.simplicity:
+                why = f"held-out misfit {e.misfit / winner.misfit - 1:+.1%} against {winner.candidate.name}, of the same model"
+            elif e.misfit <= bound:
+                why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
+            else:
+                why = f"held-out misfit {e.misfit / best - 1:+.1%} against the best"
+            c = e.candidate
+            rows.append(Row(c.name, c.scene.n_objects, c.scene.background, c.rung, c.f_max, c.start, c.turning,
+                            c.restart, e.steps, e.misfit, why))
+        best_entry = min(finished, key=lambda e: e.misfit)
+        reason = (f"{winner.candidate.name}: the best held-out misfit ({best:.4g})" if winner is best_entry else
+                  f"{winner.candidate.name}: the simplest within {self.conf.tolerance:.0%} of the best "
+                  f"({winner.misfit:.4g} against {best_entry.candidate.name}'s {best:.4g})")
+        return Verdict(winner.candidate, rows, reason)

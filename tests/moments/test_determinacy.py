@@ -1,0 +1,63 @@
+"""The run's truth-free verdict on motion along the rays (nct.moments.determinacy), on tiny simulated scans."""
+
+import json
+
+import numpy as np
+import pytest
+
+from nct.analysis.benchmarking import QUIET
+from nct.moments.determinacy import (
+    determinacy_warnings,
+    motion_determinacy,
+    turn_warnings,
+)
+from nct.run.config import validate
+from nct.run.job import run_job
+from nct.run.pipeline import acquire
+
+
+def verdict(tiny_cfg, *overrides):
+    acq = acquire(validate(tiny_cfg(*overrides)), np.random.default_rng(0))
+    return motion_determinacy(acq.sino, acq.grid)
+
+
+@pytest.mark.parametrize("overrides, determined", [
+    (("phantom.displacement_deg=360",), False),  # a fast orbit: the ray's direction turns with it
+    (("phantom.displacement_deg=30",), True),
+    (("experiment=static",), True),  # two objects, no motion: their joint centroid is still
+])
+def test_verdict_follows_the_speed(tiny_cfg, overrides, determined):
+    m = verdict(tiny_cfg, *overrides)
+    assert m.determined is determined, m
+    assert (determinacy_warnings(m) == []) is determined
+    if not determined:
+        assert "more rotations or a motion prior needed" in determinacy_warnings(m)[0]
+
+
+def test_views_that_give_no_trajectory_give_no_verdict(tiny_cfg):
+    acq = acquire(validate(tiny_cfg()), np.random.default_rng(0))
+    empty = type(acq.sino)(values=np.zeros_like(acq.sino.values), angles=acq.sino.angles, times=acq.sino.times,
+                           geometry=acq.sino.geometry)
+    assert motion_determinacy(empty, acq.grid) is None and determinacy_warnings(None) == []
+
+
+def test_run_records_the_verdict(tiny_cfg, run_dir):
+    run_job(tiny_cfg("method=fbp", "phantom.displacement_deg=360", *QUIET), run_dir)
+    motion = json.loads((run_dir / "metrics.json").read_text())["motion_determinacy"]
+    assert set(motion) >= {"ray_spread_px", "threshold_px", "determined", "length_scale_rot", "misfit_px"}
+    assert motion["determined"] is False and motion["ray_spread_px"] > motion["threshold_px"]
+    warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
+    assert any(w.startswith("motion along the rays is not determined") for w in warnings)
+
+
+@pytest.mark.parametrize("rate, coverage, warned", [(100.0, 260.0, False), (300.0, 60.0, True)])
+def test_a_bar_turning_with_the_gantry_is_warned(tiny_cfg, run_dir, rate, coverage, warned):
+    """The bar turning 300 deg/rotation over one rotation is seen in its own frame over 60 deg of view
+    angle alone (metrics.json's init; the 60 views span 59/60 of the rotation): warned; at 100
+    deg/rotation over 260 deg: not."""
+    run_job(tiny_cfg("experiment=bar", f"phantom.objects.0.angle_deg.rate={rate}", *QUIET), run_dir)
+    init = json.loads((run_dir / "metrics.json").read_text())["init"]
+    assert init["frame_coverage_deg"] == pytest.approx(coverage * 59 / 60, abs=1.0)
+    warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
+    assert any("turns with the gantry" in w for w in warnings) is warned
+    assert turn_warnings({"frame_coverage_deg": None}) == [] == turn_warnings({})
