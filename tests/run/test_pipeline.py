@@ -19,6 +19,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
 from nct.run.config import validate
+from nct.run import pipeline
 from nct.run.job import run_job
 from nct.run.pipeline import acquire
 
@@ -72,6 +73,17 @@ def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
 
+def test_only_a_file_is_checked_for_a_wrong_geometry(tiny_cfg, tmp_path, monkeypatch):
+    """A simulation's geometry is the one that made its data: a geometry warning there could only be
+    false, so only a file's run carries them."""
+    monkeypatch.setattr(pipeline, "geometry_warnings", lambda *args: ["suspect geometry: as if shifted"])
+    radon_file(tmp_path / "scan.npz")
+    run_job(tiny_cfg("method=fbp", *QUIET), tmp_path / "simulated")
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", *QUIET), tmp_path / "file")
+    assert read(tmp_path / "simulated" / "status.json")["warnings"] == []
+    assert read(tmp_path / "file" / "status.json")["warnings"] == ["suspect geometry: as if shifted"]
+
+
 def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp_path):
     run_job(tiny_cfg("method=fbp", "logger=none"), run_dir)
     before = {p: p.read_bytes() for p in run_dir.rglob("*") if p.is_file()}
@@ -104,6 +116,7 @@ def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, ste
     assert status["status"] == "ok" and bool(status["warnings"]) == warned
     assert [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING] == status["warnings"]
     assert (metrics["heldout_loss"] > metrics["heldout_fbp_loss"]) == warned
+    assert not any("file" in line for line in status["warnings"])  # a simulation's geometry made its data
 
 
 @pytest.mark.parametrize("background", ["none", "image"])

@@ -110,7 +110,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`determinacy_warnings`, `turn_warnings`, `geometry_warnings`, `suspect_fit`)."""
+    run's warnings (`determinacy_warnings`, `turn_warnings`, `geometry_warnings` of a file's geometry, `suspect_fit`)."""
     import torch
 
     if conf.threads is not None:
@@ -125,8 +125,10 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
     frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
+    from_file = isinstance(conf.data, FileConf)  # a simulation's geometry is the one that made its data
     warnings = (determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
-                + geometry_warnings(geometry, acq.sino, conf.suspect) + suspect_fit(conf, acq, extra))
+                + (geometry_warnings(geometry, acq.sino, conf.suspect) if from_file else [])
+                + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
                     "motion_determinacy": asdict(motion) if motion is not None else None,
                     "geometry_check": asdict(geometry) if geometry is not None else None}
@@ -158,7 +160,7 @@ def suspect_fit(conf: NCTConf, acq: Acquisition, extra: dict) -> list[str]:
     if misfits is None:
         return []
     extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
-    return suspect_warnings(misfits, conf.suspect)
+    return suspect_warnings(misfits, conf.suspect, isinstance(conf.data, FileConf))
 
 
 def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
