@@ -25,6 +25,15 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
                                  "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
                                  "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
                                  "intensity_lr, background_lr, divergence_factor, coarse_size"),
+    # a config group is the nearer name (not the key export); a key of another option of its group names that option
+    (["expriment=heart_cine"], "unknown key expriment: not a setting of the config; did you mean the config group "
+                               "experiment (experiment=<option>: bar, circle, heart, heart_cine, letters, nodule, "
+                               "static, thorax)?"),
+    (["data.path=x.npz"], "unknown key data.path: not a setting of data (SimulateConf); it is a setting of "
+                          "data=file: did you mean data=file?"),
+    (["+scanner.source_distance=3"], "unknown key scanner.source_distance: not a setting of scanner (ScannerConf); "
+                                     "it is a setting of scanner=fan: did you mean scanner=fan?"),
+    (["optm=fast"], "unknown key optm: not a setting of the config; did you mean optim?"),
     (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
                                        "'str' could not be converted to Float (key: phantom.displacement_deg)"),
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "

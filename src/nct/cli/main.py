@@ -30,9 +30,8 @@ from omegaconf.errors import (
 )
 
 from nct.errors import InputError, MethodError
-from nct.run.config import describe, register_configs, unknown_key
+from nct.run.config import CONFIG_MODULE, describe, register_configs, unknown_key
 
-CONFIG_MODULE = "nct.conf"
 # Hydra plugins that optional extras install: the config Hydra misses without them -> the extra.
 PLUGIN_EXTRAS = {"hydra/sweeper/optuna": "optuna", "hydra/launcher/submitit": "slurm", "hydra/launcher/ray": "ray"}
 
