@@ -180,7 +180,7 @@ def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray]
     export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames | parts)
     shown = _shown(acq, frames)
     if conf.export.tiff:
-        export.save_tiffs(out_dir / "frames", shown)
+        export.save_tiffs(out_dir / "frames", shown, acq.frame_times, acq.grid.extent)
     if conf.export.png:
         export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames,
                           acq.grid.extent)
