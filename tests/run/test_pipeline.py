@@ -73,6 +73,27 @@ def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
 
+def test_a_file_in_milliseconds_is_warned_of_and_runs_quiet_when_stated(tiny_cfg, tmp_path):
+    """Times in ms read as seconds put a turn at 250 s: a warning naming times and the fix; with
+    data.times_unit=ms the same file runs quiet, its frames at the times (s) of the file in seconds."""
+    radon_file(tmp_path / "s.npz")
+    with np.load(tmp_path / "s.npz") as f:
+        np.savez(tmp_path / "ms.npz", **(dict(f) | {"times": f["times"] * 1e3, "truth_times": f["truth_times"] * 1e3}))
+    runs = {"s": ("s.npz", "null"), "ms": ("ms.npz", "null"), "stated": ("ms.npz", "ms")}
+    for name, (file, unit) in runs.items():
+        run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / file}", f"data.times_unit={unit}",
+                         "fbp.window_deg=360", *QUIET), tmp_path / name)
+    warnings = {name: read(tmp_path / name / "status.json")["warnings"] for name in runs}
+    assert warnings["s"] == warnings["stated"] == []
+    assert len(warnings["ms"]) == 1 and warnings["ms"][0].startswith("times: a gantry turn every 250 s")
+    assert "data.times_unit=ms" in warnings["ms"][0]
+    np.testing.assert_allclose(np.load(tmp_path / "stated" / "reconstruction.npz")["times"],
+                               np.load(tmp_path / "s" / "reconstruction.npz")["times"], rtol=1e-12)
+    with pytest.raises(InputError, match=r"key 'times': a gantry turn every 0.25 ms .* set data.times_unit"):
+        run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path}/s.npz", "data.times_unit=ms", *QUIET),
+                tmp_path / "wrong")
+
+
 def test_only_a_file_is_checked_for_a_wrong_geometry(tiny_cfg, tmp_path, monkeypatch):
     """A simulation's geometry is the one that made its data: a geometry warning there could only be
     false, so only a file's run carries them."""

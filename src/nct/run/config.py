@@ -21,6 +21,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.acquisition.times import TIMES_UNITS
 from nct.errors import InputError, require
 from nct.method.conf import (
     LOGGERS,
@@ -69,7 +70,9 @@ class FileConf:
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
     has no truth (null: the diameter every view covers); with a truth, its grid.
     ``i0``: incident counts per ray behind the values' Poisson noise, for ``loss.data_term=poisson``
-    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data)."""
+    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data).
+    ``times_unit``: the unit of the file's times, s or ms (null: seconds, and a gantry turn slower than a
+    minute is warned of, as times in ms read as s look: `nct.acquisition.times`)."""
 
     name: str = "file"
     path: str = MISSING
@@ -77,8 +80,12 @@ class FileConf:
     n_objects: int = 1
     extent: float | None = None
     i0: float | None = None
+    times_unit: str | None = None
 
     def __post_init__(self) -> None:
+        if self.times_unit is not None and self.times_unit not in TIMES_UNITS:
+            raise ValueError(f"data.times_unit must be one of {', '.join(TIMES_UNITS)} (or null: seconds, checked), "
+                             f"got '{self.times_unit}'")
         if self.n_objects < 1:
             raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
         if self.extent is not None and not self.extent > 0:

@@ -17,6 +17,7 @@ from omegaconf import DictConfig
 from nct.acquisition.io import load_sinogram, save_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.acquisition.times import slow_rotation_warning
 from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory
@@ -54,7 +55,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     one, else ``image.size`` pixels over ``data.extent``); a file's sizes are checked against the
     memory here (a simulation's in `validate`)."""
     if isinstance(conf.data, FileConf):
-        sino = load_sinogram(conf.data.path, conf.data.sidecar)
+        sino = load_sinogram(conf.data.path, conf.data.sidecar, conf.data.times_unit)
         sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
         if sino.truth is not None:
             grid, frame_times = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent), sino.truth.times
@@ -110,7 +111,8 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`determinacy_warnings`, `turn_warnings`, `geometry_warnings` of a file's geometry, `suspect_fit`)."""
+    run's warnings (a file's `slow_rotation_warning`, `determinacy_warnings`, `turn_warnings`, a file's
+    `geometry_warnings`, `suspect_fit`)."""
     import torch
 
     if conf.threads is not None:
@@ -125,8 +127,9 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
     frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
-    from_file = isinstance(conf.data, FileConf)  # a simulation's geometry is the one that made its data
-    warnings = (determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
+    from_file = isinstance(conf.data, FileConf)  # a simulation's geometry and times are those that made its data
+    warnings = ((slow_rotation_warning(acq.sino.angles, acq.sino.times, conf.data.times_unit) if from_file else [])
+                + determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
                 + (geometry_warnings(geometry, acq.sino, conf.suspect) if from_file else [])
                 + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
