@@ -127,6 +127,19 @@ def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(t
     assert any(r.getMessage().startswith(f"wall time {wall:.1f} s") for r in caplog.records)
 
 
+def test_each_phase_says_what_it_starts(tiny_cfg, run_dir, caplog):
+    """Progress from the first seconds on: a line before the imports (torch: seconds) and at each phase."""
+    with caplog.at_level(logging.INFO):
+        run_job(tiny_cfg(*QUIET), run_dir)
+    lines = [r.getMessage() for r in caplog.records if r.name in ("nct.run.job", "nct.run.pipeline")]
+    assert lines[:5] == [f"outputs in {run_dir}; loading torch ...", "simulating the circle phantom: 60 views of 32 bins ...",
+                         "FBP: 6 frames of 32 x 32 pixels ...",
+                         "NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...",
+                         "writing the frames, pictures and movie ..."]
+    order = {r.getMessage().split(" ")[0]: i for i, r in reversed(list(enumerate(caplog.records)))}  # first of each
+    assert order["NeuralCT:"] < order["stage"] < order["writing"]
+
+
 @pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
 def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
     """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""

@@ -101,6 +101,7 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
         log.info("resume: %s already finished, skipped", out_dir)
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
     record("running")
+    log.info("outputs in %s; loading torch ...", out_dir)  # the first line: the imports take seconds
     try:
         from nct.run.pipeline import run  # lazy: its imports are ~3 s of start-up, after validation
 

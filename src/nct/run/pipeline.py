@@ -55,6 +55,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     one, else ``image.size`` pixels over ``data.extent``); a file's sizes are checked against the
     memory here (a simulation's in `validate`)."""
     if isinstance(conf.data, FileConf):
+        log.info("reading %s ...", conf.data.path)
         sino = load_sinogram(conf.data.path, conf.data.sidecar, conf.data.times_unit)
         sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
         if sino.truth is not None:
@@ -74,6 +75,8 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     grid = conf.image.build()
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
     frame_times = scanner.frame_times(conf.image.frames_per_rotation)
+    log.info("simulating the %s phantom: %d views of %d bins ...", conf.phantom.name, scanner.n_views,
+             conf.scanner.n_bins)
     sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
     return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
@@ -83,6 +86,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
     """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, NeuralCT's parts
     (``nct_masks`` [F, K, H, W]: each object's inside; ``nct_background`` [H, W] where there is one),
     extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
+    log.info("FBP: %d frames of %d x %d pixels ...", len(acq.frame_times), acq.grid.size, acq.grid.size)
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
     parts: dict[str, np.ndarray] = {}
     extra: dict = {}
@@ -90,6 +94,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
     if conf.method == "nct":
         from nct.method.reconstruct import reconstruct
 
+        log.info("NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...")
         result = reconstruct(
             acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
             log_dir=out_dir, logger=conf.logger.name,
@@ -145,6 +150,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     elif trace:
         log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
+    log.info("writing the frames, pictures and movie ...")
     write_outputs(conf, acq, frames, parts, scored, result, out_dir)
     result["wall_time_s"] = time.perf_counter() - started  # TensorBoard's summary, written next, records it too
     if conf.logger.name == "tensorboard":
