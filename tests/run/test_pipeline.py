@@ -12,16 +12,18 @@ from importlib import metadata
 import numpy as np
 import pytest
 import torch
+from hydra.types import RunMode
 from skimage.draw import ellipse
 from skimage.transform import radon
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
-from nct.run.config import validate
 from nct.run import pipeline
+from nct.run.config import validate
 from nct.run.job import run_job
 from nct.run.pipeline import acquire
+from tests.conftest import TINY, compose_config
 
 
 def read(path):
@@ -111,7 +113,7 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
     np.savez(tmp_path / "bad.npz", sinogram=np.zeros((4, 4), np.float32), angles=np.zeros(4), times=np.zeros(4))
     with pytest.raises(InputError, match="'bin_spacing'"):
         run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'bad.npz'}"), tmp_path / "other")
-    assert read(tmp_path / "other" / "status.json")["status"] == "failed"
+    assert not (tmp_path / "other").exists()  # a refused file leaves no run folder
     with pytest.raises(InputError, match="already holds a finished run"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir)
     assert {p: p.read_bytes() for p in run_dir.rglob("*") if p.is_file()} == before
@@ -198,12 +200,20 @@ def test_resume_refuses_a_folder_made_with_other_settings(tiny_cfg, run_dir):
     assert read(run_dir / "status.json")["overrides"] == ["method=fbp", "seed=1"]
 
 
-def test_invalid_value_is_recorded_as_failed(tiny_cfg, run_dir):
+def test_an_invalid_value_leaves_no_folder_and_a_sweeps_job_a_failed_record(tiny_cfg, run_dir, tmp_path):
+    """A refused single run leaves no folder behind (the error is its one line); a sweep's refused job
+    records why in its own folder, which nct-report lists."""
+    run_dir.mkdir()  # as Hydra makes it before the job
     with pytest.raises(InputError, match="phantom.displacement_deg"):
         run_job(tiny_cfg("phantom.displacement_deg=400"), run_dir)
-    status = read(run_dir / "status.json")
+    assert not run_dir.exists()
+    sweep = compose_config(TINY, with_hydra=True)
+    sweep.hydra.mode = RunMode.MULTIRUN
+    with pytest.raises(InputError, match="phantom.displacement_deg"):
+        run_job(tiny_cfg("phantom.displacement_deg=400"), tmp_path / "0", ["phantom.displacement_deg=400"], hydra=sweep)
+    status = read(tmp_path / "0" / "status.json")
     assert status["status"] == "failed" and "phantom.displacement_deg" in status["error"]
-    assert status["warnings"] == []
+    assert status["warnings"] == [] and (tmp_path / "0" / ".hydra" / "hydra.yaml").is_file()
 
 
 def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):

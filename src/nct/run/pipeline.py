@@ -23,7 +23,7 @@ from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.determinacy import determinacy_warnings, motion_determinacy, turn_warnings
-from nct.run.job import read_status
+from nct.run.folder import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
