@@ -59,7 +59,7 @@ def test_a_killed_run_resumes_from_its_folder_alone_and_refusals_touch_nothing(n
         code, _, err = nct(*args)
         assert code == 2 and says in err and err.count("\n") == 1, err
         assert files(killed) == before, args
-    code, _, err = nct(f"hydra.run.dir={killed}", "resume=true")  # the README's command, no settings repeated
+    code, _, err = nct(f"resume={killed}")  # the README's command: the folder alone
     assert code == 0, err
     stages = json.loads((killed / "metrics.json").read_text())["stages"]
     assert stages["free_init"]["resumed"] and "resumed" not in stages["free_fit"]
@@ -67,7 +67,7 @@ def test_a_killed_run_resumes_from_its_folder_alone_and_refusals_touch_nothing(n
     np.testing.assert_array_equal(np.load(killed / "reconstruction.npz")["nct"],
                                   np.load(whole / "reconstruction.npz")["nct"])
     finished = files(killed)
-    code, out, _ = nct(f"resume={killed}")
+    code, out, _ = nct(f"hydra.run.dir={killed}", "resume=true")  # the longer form, no settings repeated
     assert code == 0 and "already holds this finished run: skipped, untouched" in out
     assert nct(f"hydra.run.dir={killed}", *RUN)[0] == 2
     assert files(killed) == finished
