@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 
+import numpy as np
 import pytest
 import torch
 
@@ -45,6 +46,16 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
 def test_config_errors_are_one_line_with_exit_code_2(nct, args, message):
     code, _, err = nct(*QUICK, *args)
     assert (code, err) == (2, f"nct: error: {message}\n")
+
+
+def test_a_refused_input_leaves_no_run_folder(nct, tmp_path):
+    """A bad setting or a file refused by its checks: one line, and no run folder left behind."""
+    np.savez(tmp_path / "bad.npz", sinogram=np.ones((4, 4), np.float32), angles=np.zeros(4), times=np.zeros(4))
+    for args, says in ((["phantom.displacement_deg=500"], "phantom.displacement_deg"),
+                       (["data=file", "data.path=bad.npz", "method=fbp"], "'bin_spacing'")):  # the file's, once running
+        code, _, err = nct("debug=tiny", "logger=none", *args)
+        assert code == 2 and err.startswith("nct: error: ") and says in err
+    assert not (tmp_path / "outputs").exists() or not any((tmp_path / "outputs" / "runs").iterdir())
 
 
 def test_missing_optuna_extra_names_the_install_command(nct):

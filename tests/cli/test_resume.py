@@ -73,14 +73,6 @@ def test_a_killed_run_resumes_from_its_folder_alone_and_refusals_touch_nothing(n
     assert files(killed) == finished
 
 
-def test_a_refused_input_leaves_no_run_folder(nct, tmp_path):
-    np.savez(tmp_path / "bad.npz", sinogram=np.ones((4, 4), np.float32), angles=np.zeros(4), times=np.zeros(4))
-    for args in (["phantom.displacement_deg=500"], ["data=file", "data.path=bad.npz", "method=fbp"]):
-        code, _, err = nct("debug=tiny", "logger=none", *args)
-        assert code == 2 and err.startswith("nct: error: ")
-    assert not (tmp_path / "outputs").exists() or not any((tmp_path / "outputs" / "runs").iterdir())
-
-
 RECORDED = ["debug=tiny", "seed=1"]
 
 
