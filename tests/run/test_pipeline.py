@@ -134,7 +134,8 @@ def test_each_phase_says_what_it_starts(tiny_cfg, run_dir, caplog):
     with caplog.at_level(logging.INFO):
         run_job(tiny_cfg(*QUIET), run_dir)
     lines = [r.getMessage() for r in caplog.records if r.name in ("nct.run.job", "nct.run.pipeline")]
-    assert lines[:5] == [f"outputs in {run_dir}; loading torch ...", "simulating the circle phantom: 60 views of 32 bins ...",
+    assert lines[:5] == [f"outputs in {run_dir}; loading torch ...",
+                         "simulating the circle phantom: 60 views of 32 bins ...",
                          "FBP: 6 frames of 32 x 32 pixels ...",
                          "NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...",
                          "writing the frames, pictures and movie ..."]
