@@ -29,11 +29,8 @@ VARIANTS = {  # each in units of its own (fit/units.py): the export maps back li
 
 
 def make_run(folder: Path, overrides: list[str]) -> Path:
-    """One tiny run through the pipeline, with the config Hydra would save beside it."""
-    cfg = compose_config(TINY + QUIET + overrides)
-    run_job(cfg, folder)
-    (folder / ".hydra").mkdir()
-    OmegaConf.save(cfg, folder / ".hydra" / "config.yaml")
+    """One tiny run through the pipeline, with its config in .hydra/ (run_job writes it)."""
+    run_job(compose_config(TINY + QUIET + overrides), folder)
     return folder
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 
+import numpy as np
 import pytest
 import torch
 
@@ -25,6 +26,15 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
                                  "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
                                  "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
                                  "intensity_lr, background_lr, divergence_factor, coarse_size"),
+    # a config group is the nearer name (not the key export); a key of another option of its group names that option
+    (["expriment=heart_cine"], "unknown key expriment: not a setting of the config; did you mean the config group "
+                               "experiment (experiment=<option>: bar, circle, heart, heart_cine, letters, nodule, "
+                               "static, thorax)?"),
+    (["data.path=x.npz"], "unknown key data.path: not a setting of data (SimulateConf); it is a setting of "
+                          "data=file: did you mean data=file?"),
+    (["+scanner.source_distance=3"], "unknown key scanner.source_distance: not a setting of scanner (ScannerConf); "
+                                     "it is a setting of scanner=fan: did you mean scanner=fan?"),
+    (["optm=fast"], "unknown key optm: not a setting of the config; did you mean optim?"),
     (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
                                        "'str' could not be converted to Float (key: phantom.displacement_deg)"),
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
@@ -36,6 +46,16 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
 def test_config_errors_are_one_line_with_exit_code_2(nct, args, message):
     code, _, err = nct(*QUICK, *args)
     assert (code, err) == (2, f"nct: error: {message}\n")
+
+
+def test_a_refused_input_leaves_no_run_folder(nct, tmp_path):
+    """A bad setting or a file refused by its checks: one line, and no run folder left behind."""
+    np.savez(tmp_path / "bad.npz", sinogram=np.ones((4, 4), np.float32), angles=np.zeros(4), times=np.zeros(4))
+    for args, says in ((["phantom.displacement_deg=500"], "phantom.displacement_deg"),
+                       (["data=file", "data.path=bad.npz", "method=fbp"], "'bin_spacing'")):  # the file's, once running
+        code, _, err = nct("debug=tiny", "logger=none", *args)
+        assert code == 2 and err.startswith("nct: error: ") and says in err
+    assert not (tmp_path / "outputs").exists() or not any((tmp_path / "outputs" / "runs").iterdir())
 
 
 def test_missing_optuna_extra_names_the_install_command(nct):

@@ -6,12 +6,14 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
+import tifffile
 
 from nct.run.export import (
     metric_figure,
     movie_figure,
     movie_pictures,
     save_movie,
+    save_tiffs,
     strip_figure,
     time_label,
     trace_figure,
@@ -112,3 +114,18 @@ def test_movie_pictures_are_a_full_draw_of_each_frame():
         fig.canvas.draw()
         full.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
     np.testing.assert_array_equal(movie_pictures(shown, times, EXTENT), np.stack(full))
+
+
+def test_tiff_stacks_carry_pixel_size_unit_and_frame_interval_for_imagej(tmp_path: Path):
+    times = np.array([0.0, 0.02, 0.04, 0.06])
+    save_tiffs(tmp_path, frames(4, 16), times, EXTENT)
+    with tifffile.TiffFile(tmp_path / "nct.tiff") as tif:
+        meta, page = tif.imagej_metadata, tif.pages[0]
+        stack = tif.asarray()
+        x, y = (page.tags[name].value for name in ("XResolution", "YResolution"))
+    np.testing.assert_array_equal(stack, frames(4, 16)["nct"])
+    assert meta["frames"] == 4 and meta["unit"] == "unit" and meta["finterval"] == pytest.approx(0.02)
+    assert x[1] / x[0] == pytest.approx(EXTENT / 16, rel=1e-6) and y == x  # pixels per unit: 16 / 250
+    save_tiffs(tmp_path / "one", {"nct": frames(1, 16)["nct"]}, times[:1], EXTENT)
+    with tifffile.TiffFile(tmp_path / "one" / "nct.tiff") as tif:
+        assert "finterval" not in tif.imagej_metadata

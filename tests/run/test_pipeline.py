@@ -12,15 +12,18 @@ from importlib import metadata
 import numpy as np
 import pytest
 import torch
+from hydra.types import RunMode
 from skimage.draw import ellipse
 from skimage.transform import radon
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
+from nct.run import pipeline
 from nct.run.config import validate
 from nct.run.job import run_job
 from nct.run.pipeline import acquire
+from tests.conftest import TINY, compose_config
 
 
 def read(path):
@@ -72,13 +75,45 @@ def test_independent_sinogram_file_reconstructs(tiny_cfg, run_dir, tmp_path):
     assert read(run_dir / "metrics.json")["fbp"]["median_dice"] >= 0.98
 
 
+def test_a_file_in_milliseconds_is_warned_of_and_runs_quiet_when_stated(tiny_cfg, tmp_path):
+    """Times in ms read as seconds put a turn at 250 s: a warning naming times and the fix; with
+    data.times_unit=ms the same file runs quiet, its frames at the times (s) of the file in seconds."""
+    radon_file(tmp_path / "s.npz")
+    with np.load(tmp_path / "s.npz") as f:
+        np.savez(tmp_path / "ms.npz", **(dict(f) | {"times": f["times"] * 1e3, "truth_times": f["truth_times"] * 1e3}))
+    runs = {"s": ("s.npz", "null"), "ms": ("ms.npz", "null"), "stated": ("ms.npz", "ms")}
+    for name, (file, unit) in runs.items():
+        run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / file}", f"data.times_unit={unit}",
+                         "fbp.window_deg=360", *QUIET), tmp_path / name)
+    warnings = {name: read(tmp_path / name / "status.json")["warnings"] for name in runs}
+    assert warnings["s"] == warnings["stated"] == []
+    assert len(warnings["ms"]) == 1 and warnings["ms"][0].startswith("times: a gantry turn every 250 s")
+    assert "data.times_unit=ms" in warnings["ms"][0]
+    np.testing.assert_allclose(np.load(tmp_path / "stated" / "reconstruction.npz")["times"],
+                               np.load(tmp_path / "s" / "reconstruction.npz")["times"], rtol=1e-12)
+    with pytest.raises(InputError, match=r"key 'times': a gantry turn every 0.25 ms .* set data.times_unit"):
+        run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path}/s.npz", "data.times_unit=ms", *QUIET),
+                tmp_path / "wrong")
+
+
+def test_only_a_file_is_checked_for_a_wrong_geometry(tiny_cfg, tmp_path, monkeypatch):
+    """A simulation's geometry is the one that made its data: a geometry warning there could only be
+    false, so only a file's run carries them."""
+    monkeypatch.setattr(pipeline, "geometry_warnings", lambda *args: ["suspect geometry: as if shifted"])
+    radon_file(tmp_path / "scan.npz")
+    run_job(tiny_cfg("method=fbp", *QUIET), tmp_path / "simulated")
+    run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", *QUIET), tmp_path / "file")
+    assert read(tmp_path / "simulated" / "status.json")["warnings"] == []
+    assert read(tmp_path / "file" / "status.json")["warnings"] == ["suspect geometry: as if shifted"]
+
+
 def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp_path):
     run_job(tiny_cfg("method=fbp", "logger=none"), run_dir)
     before = {p: p.read_bytes() for p in run_dir.rglob("*") if p.is_file()}
     np.savez(tmp_path / "bad.npz", sinogram=np.zeros((4, 4), np.float32), angles=np.zeros(4), times=np.zeros(4))
     with pytest.raises(InputError, match="'bin_spacing'"):
         run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'bad.npz'}"), tmp_path / "other")
-    assert read(tmp_path / "other" / "status.json")["status"] == "failed"
+    assert not (tmp_path / "other").exists()  # a refused file leaves no run folder
     with pytest.raises(InputError, match="already holds a finished run"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir)
     assert {p: p.read_bytes() for p in run_dir.rglob("*") if p.is_file()} == before
@@ -94,6 +129,20 @@ def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(t
     assert any(r.getMessage().startswith(f"wall time {wall:.1f} s") for r in caplog.records)
 
 
+def test_each_phase_says_what_it_starts(tiny_cfg, run_dir, caplog):
+    """Progress from the first seconds on: a line before the imports (torch: seconds) and at each phase."""
+    with caplog.at_level(logging.INFO):
+        run_job(tiny_cfg(*QUIET), run_dir)
+    lines = [r.getMessage() for r in caplog.records if r.name in ("nct.run.job", "nct.run.pipeline")]
+    assert lines[:5] == [f"outputs in {run_dir}; loading torch ...",
+                         "simulating the circle phantom: 60 views of 32 bins ...",
+                         "FBP: 6 frames of 32 x 32 pixels ...",
+                         "NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...",
+                         "writing the frames, pictures and movie ..."]
+    order = {r.getMessage().split(" ")[0]: i for i, r in reversed(list(enumerate(caplog.records)))}  # first of each
+    assert order["NeuralCT:"] < order["stage"] < order["writing"]
+
+
 @pytest.mark.parametrize(("steps", "warned"), [(5, True), (100, False)])
 def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, steps: int, warned: bool):
     """At tiny sizes, 5 steps leave the held-out views worse explained than by FBP; 100 + 200 do not."""
@@ -104,6 +153,7 @@ def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, ste
     assert status["status"] == "ok" and bool(status["warnings"]) == warned
     assert [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING] == status["warnings"]
     assert (metrics["heldout_loss"] > metrics["heldout_fbp_loss"]) == warned
+    assert not any("file" in line for line in status["warnings"])  # a simulation's geometry made its data
 
 
 @pytest.mark.parametrize("background", ["none", "image"])
@@ -151,12 +201,20 @@ def test_resume_refuses_a_folder_made_with_other_settings(tiny_cfg, run_dir):
     assert read(run_dir / "status.json")["overrides"] == ["method=fbp", "seed=1"]
 
 
-def test_invalid_value_is_recorded_as_failed(tiny_cfg, run_dir):
+def test_an_invalid_value_leaves_no_folder_and_a_sweeps_job_a_failed_record(tiny_cfg, run_dir, tmp_path):
+    """A refused single run leaves no folder behind (the error is its one line); a sweep's refused job
+    records why in its own folder, which nct-report lists."""
+    run_dir.mkdir()  # as Hydra makes it before the job
     with pytest.raises(InputError, match="phantom.displacement_deg"):
         run_job(tiny_cfg("phantom.displacement_deg=400"), run_dir)
-    status = read(run_dir / "status.json")
+    assert not run_dir.exists()
+    sweep = compose_config(TINY, with_hydra=True)
+    sweep.hydra.mode = RunMode.MULTIRUN
+    with pytest.raises(InputError, match="phantom.displacement_deg"):
+        run_job(tiny_cfg("phantom.displacement_deg=400"), tmp_path / "0", ["phantom.displacement_deg=400"], hydra=sweep)
+    status = read(tmp_path / "0" / "status.json")
     assert status["status"] == "failed" and "phantom.displacement_deg" in status["error"]
-    assert status["warnings"] == []
+    assert status["warnings"] == [] and (tmp_path / "0" / ".hydra" / "hydra.yaml").is_file()
 
 
 def test_file_without_truth_spans_the_detector(tiny_cfg, run_dir, tmp_path):

@@ -55,13 +55,22 @@ def test_fbp_misfit_grows_with_motion_and_skips_runs_without_held_out_views():
     (HeldoutMisfits(nct=0.27, fbp=0.28, noise=0.23), []),  # noisy data: only what is beyond the noise counts
 ])
 def test_warnings_say_why(misfits: HeldoutMisfits, reasons: list[str]):
-    lines = suspect_warnings(misfits, SuspectConf())
+    lines = suspect_warnings(misfits, SuspectConf(), from_file=True)
     assert len(lines) == len(reasons)
     assert all(line.startswith("suspect fit") and reason in line for line, reason in zip(lines, reasons))
 
 
+def test_a_simulation_is_never_told_its_file_is_wrong():
+    """A simulated scan's geometry is the one that made its data: its warnings blame no file."""
+    misfits = HeldoutMisfits(nct=0.20, fbp=0.09, noise=0.0)
+    filed, simulated = (suspect_warnings(misfits, SuspectConf(), from_file=f) for f in (True, False))
+    assert len(simulated) == len(filed) == 2 and "file" in filed[1]
+    assert not any("file" in line or "geometry" in line for line in simulated)
+
+
 def test_thresholds_come_from_the_config():
     misfits = HeldoutMisfits(nct=0.07, fbp=0.11, noise=0.0)
-    assert suspect_warnings(misfits, SuspectConf(fbp_ratio=0.5)) and suspect_warnings(misfits, SuspectConf(excess=0.05))
+    assert suspect_warnings(misfits, SuspectConf(fbp_ratio=0.5), True)
+    assert suspect_warnings(misfits, SuspectConf(excess=0.05), True)
     with pytest.raises(ValueError, match="suspect.excess"):
         SuspectConf(excess=0.0)

@@ -1,10 +1,11 @@
 """The sinogram file: one ``.npz`` written by every run and read by ``data=file``.
 
 Keys: ``sinogram`` [n_views, n_bins] (any real dtype, read as float32: `working_dtype`), ``angles``
-[n_views] radians (degrees with ``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing),
-``bin_spacing`` scalar; optional ``detector_offset`` (default 0), and fan beam when
-``source_distance`` is present, with ``detector_distance`` (both > 0) and optional
-``detector_shape`` ("flat" default, or "curved"): the convention of ``geometry.py``; for scoring
+[n_views] radians (degrees with ``angles_unit`` "deg"), ``times`` [n_views] seconds (non-decreasing;
+milliseconds with ``data.times_unit=ms``, ``truth_times`` too: `times.py`), ``bin_spacing`` scalar;
+optional ``detector_offset`` (default 0), and fan beam when ``source_distance`` is present, with
+``detector_distance`` (both > 0) and optional ``detector_shape`` ("flat" default, or "curved"):
+the convention of ``geometry.py``; for scoring
 ``truth`` [n_frames, H, W] with ``truth_times`` [n_frames] and ``truth_extent`` scalar (and
 optionally ``truth_level`` and ``truth_levels`` [K], each object's own level).
 
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,7 @@ import tifffile
 
 from nct.acquisition.geometry import DETECTOR_SHAPES, Geometry, make_geometry
 from nct.acquisition.sinogram import Sinogram, Truth
+from nct.acquisition.times import in_seconds, seconds_per
 from nct.errors import InputError
 
 REQUIRED = ("angles", "times", "bin_spacing")  # and the data: ``sinogram``, or ``counts`` with ``flat``
@@ -108,15 +111,16 @@ def _scalar(data: dict, path: str, key: str, positive: bool = True) -> float:
     return v
 
 
-def load_sinogram(path: str | Path, sidecar: str | Path | None = None) -> Sinogram:
+def load_sinogram(path: str | Path, sidecar: str | Path | None = None, times_unit: str | None = None) -> Sinogram:
     """Read and validate a sinogram file (``.npz``, or a TIFF stack with its ``sidecar`` ``.npz``,
-    by default the TIFF's name ending ``.npz``); raise `InputError` naming the first bad key."""
+    by default the TIFF's name ending ``.npz``; its ``times`` in ``times_unit``, s or ms, None: s);
+    raise `InputError` naming the first bad key."""
     path = _existing_file(Path(path), "data.path")
     if path.suffix.lower() in TIFF_SUFFIXES:
-        return _parse(*_read_tiff(path, path.with_suffix(".npz") if sidecar is None else Path(sidecar)))
+        return _parse(*_read_tiff(path, path.with_suffix(".npz") if sidecar is None else Path(sidecar)), times_unit)
     if sidecar is not None:
         raise InputError(f"data.sidecar: only a TIFF stack (data.path=*.tif) takes a sidecar, not {path}")
-    return _parse(_read_npz(path, "data.path"), str(path))
+    return _parse(_read_npz(path, "data.path"), str(path), times_unit)
 
 
 def _existing_file(path: Path, config_key: str) -> Path:
@@ -160,8 +164,8 @@ def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
     return arrays, source
 
 
-def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
-    """The validated sinogram of the arrays ``data`` read from ``path``."""
+def _parse(data: dict[str, np.ndarray], path: str, times_unit: str | None = None) -> Sinogram:
+    """The validated sinogram of the arrays ``data`` read from ``path`` (times in ``times_unit``)."""
     for key in REQUIRED:
         if key not in data:
             raise _fail(path, key, "present (required keys: sinogram or counts, " + ", ".join(REQUIRED) + ")",
@@ -183,8 +187,11 @@ def _parse(data: dict[str, np.ndarray], path: str) -> Sinogram:
         raise _fail(path, "times", "non-decreasing times", "times that go backwards")
     if np.ptp(times) == 0:
         raise _fail(path, "times", "times that advance over the scan", f"every view at the same time {times[0]:g}")
+    times = in_seconds(angles, times, times_unit, path)
     geometry = _geometry(data, path, values.shape[1])
     truth = _load_truth(data, path)
+    if truth is not None:
+        truth = replace(truth, times=truth.times * seconds_per(times_unit))
     attenuation = _scalar(data, path, "attenuation") if "attenuation" in data else 1.0
     return Sinogram(values, angles, times, geometry, truth=truth, i0=i0, attenuation=attenuation)
 

@@ -86,7 +86,7 @@ def export(args: argparse.Namespace) -> list[Path]:
     if args.gif:
         files.save_movie(out.with_suffix(".gif"), {"nct": frames}, times, run.fps, run.grid.extent)
     if args.tiff:
-        files.save_tiffs(out.parent, {out.stem: frames})
+        files.save_tiffs(out.parent, {out.stem: frames}, times, run.grid.extent)
     return written
 
 

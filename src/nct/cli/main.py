@@ -29,10 +29,10 @@ from omegaconf.errors import (
     OmegaConfBaseException,
 )
 
+from nct.cli.resume import resume_arguments
 from nct.errors import InputError, MethodError
-from nct.run.config import describe, register_configs, unknown_key
+from nct.run.config import CONFIG_MODULE, describe, register_configs, unknown_key
 
-CONFIG_MODULE = "nct.conf"
 # Hydra plugins that optional extras install: the config Hydra misses without them -> the extra.
 PLUGIN_EXTRAS = {"hydra/sweeper/optuna": "optuna", "hydra/launcher/submitit": "slurm", "hydra/launcher/ray": "ray"}
 
@@ -49,7 +49,8 @@ def app(cfg: DictConfig) -> float | None:
     from nct.run.job import run_job
 
     try:
-        return run_job(cfg, Path(hydra_cfg.runtime.output_dir), list(hydra_cfg.overrides.task), started)
+        return run_job(cfg, Path(hydra_cfg.runtime.output_dir), list(hydra_cfg.overrides.task), started,
+                       HydraConfig.instance().cfg)
     except Exception as err:
         message = one_line(err)
         if message is None or hydra_cfg.mode.name != "RUN":
@@ -104,7 +105,12 @@ def one_line(err: BaseException) -> str | None:
 
 def main() -> None:
     """Console entry point (``nct``). Hydra re-raises errors (HYDRA_FULL_ERROR) so that configuration
-    errors become one line with exit code 2; set HYDRA_FULL_ERROR=1 yourself for Hydra's own report."""
+    errors become one line with exit code 2; set HYDRA_FULL_ERROR=1 yourself for Hydra's own report.
+    ``resume=<run folder>`` is completed with the run's recorded settings first (`nct.cli.resume`)."""
+    try:
+        sys.argv[1:] = resume_arguments(sys.argv[1:])
+    except InputError as err:
+        fail(str(err))
     if os.environ.get("HYDRA_FULL_ERROR") == "1":
         app()
         return

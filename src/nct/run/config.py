@@ -12,6 +12,7 @@ import math
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields, is_dataclass
+from importlib import resources
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
@@ -20,6 +21,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.acquisition.times import TIMES_UNITS
 from nct.errors import InputError, require
 from nct.fields.conf import ModelConf
 from nct.fit.conf import (
@@ -67,7 +69,9 @@ class FileConf:
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
     has no truth (null: the diameter every view covers); with a truth, its grid.
     ``i0``: incident counts per ray behind the values' Poisson noise, for ``loss.data_term=poisson``
-    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data)."""
+    (null: the file's own ``i0``, from its key or its flat field, else estimated from the data).
+    ``times_unit``: the unit of the file's times, s or ms (null: seconds, and a gantry turn slower than a
+    minute is warned of, as times in ms read as s look: `nct.acquisition.times`)."""
 
     name: str = "file"
     path: str = MISSING
@@ -75,8 +79,12 @@ class FileConf:
     n_objects: int = 1
     extent: float | None = None
     i0: float | None = None
+    times_unit: str | None = None
 
     def __post_init__(self) -> None:
+        if self.times_unit is not None and self.times_unit not in TIMES_UNITS:
+            raise ValueError(f"data.times_unit must be one of {', '.join(TIMES_UNITS)} (or null: seconds, checked), "
+                             f"got '{self.times_unit}'")
         if self.n_objects < 1:
             raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
         if self.extent is not None and not self.extent > 0:
@@ -296,6 +304,7 @@ def binary_size(n_bytes: float) -> str:
     return f"{n_bytes / 1024**exponent:.3g} {'KMGTP'[exponent - 1]}iB"
 
 
+CONFIG_MODULE = "nct.conf"  # the package holding the Hydra configs (pkg://nct.conf)
 SCHEMAS: dict[str, dict[str, type]] = {
     "data": {"simulate": SimulateConf, "file": FileConf},
     "phantom": {"circle": CircleConf, "heart": HeartConf, "letters": LettersConf,
@@ -372,13 +381,31 @@ def undeclared_keys(node: DictConfig, prefix: str = "") -> Iterator[tuple[str, t
 
 
 def unknown_key(full_key: str, schema: type) -> str:
-    """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean."""
+    """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean: the option
+    of its group that has the key (``data.path`` -> ``data=file``), else the nearest of its keys and, at
+    the top level, of the config groups (``expriment`` -> the group ``experiment``, not the key ``export``)."""
     parent, _, key = full_key.rpartition(".")
     known = [f.name for f in fields(schema)]
-    close = difflib.get_close_matches(key, known, n=1)
     where = f"{parent} ({schema.__name__})" if parent else "the config"
-    hint = f"did you mean {parent + '.' if parent else ''}{close[0]}?" if close else f"its keys: {', '.join(known)}"
+    owners = [name for name, node in SCHEMAS.get(parent, {}).items() if key in {f.name for f in fields(node)}]
+    groups = {} if parent else {group: options for group, options in config_groups().items() if group not in known}
+    close = difflib.get_close_matches(key, known + list(groups), n=1)
+    if owners:
+        hint = f"it is a setting of {parent}={owners[0]}: did you mean {parent}={owners[0]}?"
+    elif close and close[0] in groups:
+        hint = f"did you mean the config group {close[0]} ({close[0]}=<option>: {', '.join(groups[close[0]])})?"
+    else:
+        hint = f"did you mean {parent + '.' if parent else ''}{close[0]}?" if close else f"its keys: {', '.join(known)}"
     return f"unknown key {full_key}: not a setting of {where}; {hint}"
+
+
+def config_groups() -> dict[str, list[str]]:
+    """The config groups a user picks an option of (``group=option``, as ``nct --help`` lists them) and
+    their options: the package's config folders, Hydra's own aside."""
+    root = resources.files(CONFIG_MODULE)
+    return {folder.name: sorted(f.name.removesuffix(".yaml") for f in folder.iterdir() if f.name.endswith(".yaml"))
+            for folder in sorted(root.iterdir(), key=lambda f: f.name)
+            if folder.is_dir() and folder.name != "hydra" and any(f.name.endswith(".yaml") for f in folder.iterdir())}
 
 
 def describe(err: OmegaConfBaseException) -> str:

@@ -24,6 +24,7 @@ X_LABEL, Y_LABEL = "x (length unit of the data)", "y (length unit of the data)"
 INTENSITY_LABEL = "intensity (the data's unit)"
 MSE_LABEL = "MSE (intensity unit²)"
 TIME_LABEL = "frame time (ms)"
+TIFF_UNIT = "unit"  # ImageJ's name of the length unit of the TIFFs' pixel size: the data's, unnamed
 
 
 def save_reconstruction(path: Path, times: np.ndarray, extent: float, frames: dict[str, np.ndarray]) -> None:
@@ -33,12 +34,17 @@ def save_reconstruction(path: Path, times: np.ndarray, extent: float, frames: di
     np.savez_compressed(path, times=np.asarray(times, dtype=np.float64), extent=np.float64(extent), **arrays)
 
 
-def save_tiffs(folder: Path, frames: dict[str, np.ndarray]) -> None:
-    """One float32 TIFF stack per method, ``<folder>/<name>.tiff`` [F,H,W] (ImageJ reads it as a movie)."""
+def save_tiffs(folder: Path, frames: dict[str, np.ndarray], times: np.ndarray, extent: float) -> None:
+    """One float32 TIFF stack per method, ``<folder>/<name>.tiff`` [F,H,W], which ImageJ reads as a movie
+    with its pixel size (``extent`` / W, in the data's length unit, which no file names: `TIFF_UNIT`) and
+    frame interval (s; the mean of ``times`` [F]' steps, absent for one frame)."""
     folder.mkdir(parents=True, exist_ok=True)
     for name, f in frames.items():
+        pixel = extent / f.shape[-1]
+        metadata = {"axes": "TYX", "unit": TIFF_UNIT} | (
+            {"finterval": float(np.mean(np.diff(times)))} if len(times) > 1 else {})
         tifffile.imwrite(folder / f"{name}.tiff", np.asarray(f, dtype=np.float32), imagej=True,
-                         metadata={"axes": "TYX"})
+                         resolution=(1 / pixel, 1 / pixel), metadata=metadata)
 
 
 def _display_range(frames: dict[str, np.ndarray]) -> float:

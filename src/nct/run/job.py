@@ -1,8 +1,12 @@
-"""One job's record around `nct.run.pipeline.run`: validate the config, honour ``resume``, and keep
-``status.json`` (running, ok, failed or diverged, with the wall time and warnings) in the run folder.
+"""One job's record around `nct.run.pipeline.run`: admit it into its folder (`nct.run.folder`), honour
+``resume``, and keep ``status.json`` (running, ok, failed or diverged, with the wall time and warnings)
+and ``.hydra/`` in the run folder.
 
-A run that fails records its error there and leaves every other run's folder untouched. Bad input
-fails here before the pipeline (torch, matplotlib, ...) is imported, in a third of the time.
+A refused job (bad settings, a bad file, a folder that holds another run) leaves every folder as it
+found it: another run's files untouched, a folder it made removed; only a sweep's job keeps a
+``failed`` record, which `nct-report` lists. A run that fails once admitted (its method, a crash)
+keeps its folder with the error. Bad input fails here before the pipeline (torch, matplotlib, ...)
+is imported, in a third of the time.
 """
 
 from __future__ import annotations
@@ -14,13 +18,15 @@ import sys
 import time
 import traceback
 from collections.abc import Sequence
+from functools import partial
 from importlib import metadata
 from pathlib import Path
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from nct.errors import DivergenceError, InputError, MethodError
 from nct.run.config import validate
+from nct.run.folder import Folder, settings, write_record
 
 log = logging.getLogger(__name__)
 
@@ -31,13 +37,6 @@ def _write_json(path: Path, payload: dict) -> None:
     tmp.replace(path)
 
 
-def read_status(out_dir: Path) -> dict | None:
-    """The run's status.json, or None when the folder has none (never started)."""
-    path = out_dir / "status.json"
-    return json.loads(path.read_text()) if path.is_file() else None
-
-
-IGNORED_OVERRIDES = ("resume=", "hydra.")
 PACKAGES = ("nct", "torch", "numpy", "scipy", "scikit-image", "scikit-learn", "lightning", "hydra-core")
 
 
@@ -55,58 +54,60 @@ def environment() -> dict[str, str]:
     return versions | ({"torch": torch.__version__} if torch is not None else {})
 
 
-def _settings(overrides: list[str] | None) -> list[str]:
-    """The overrides that define a job's result (not ``resume`` or Hydra's own), sorted."""
-    return sorted(o for o in overrides or [] if not o.startswith(IGNORED_OVERRIDES))
+def _record(out_dir: Path, job_settings: list[str], started: float, status: str, error: str | None = None,
+            wall: float | None = None, warnings: Sequence[str] = (), **extra) -> None:
+    """Write the job's status.json (``wall`` None: the wall time so far)."""
+    _write_json(out_dir / "status.json", {
+        "status": status, "error": error, "overrides": job_settings,
+        "wall_time_s": time.perf_counter() - started if wall is None else wall,
+        "warnings": list(warnings), "environment": environment(), **extra})
 
 
 def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
-            started: float | None = None) -> float | None:
-    """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
+            started: float | None = None, hydra: DictConfig | None = None) -> float | None:
+    """Admit, run and record one job; returns the held-out sinogram loss (for sweepers).
 
     ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
-    skips a finished folder only when it was made with the same settings. ``started``: when the
+    continues or skips a folder only when it was made with the same settings. ``started``: when the
     job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
     the start of its one wall time, which the log, status.json and metrics.json give alike.
-    status.json's ``warnings``: those `nct.run.pipeline.run` returns (motion the data do not determine,
-    a geometry the views contradict, why the fit is suspect), empty when nothing says so.
+    ``hydra``: Hydra's config of the job (from the command line), written beside the job's config in
+    ``.hydra/``; its mode tells a sweep's job. status.json's ``warnings``: those `nct.run.pipeline.run`
+    returns (times, motion the data do not determine, a file's geometry, why the fit is suspect).
     """
     started = time.perf_counter() if started is None else started
-    out_dir.mkdir(parents=True, exist_ok=True)
-    settings = _settings(overrides)
-
-    def record(status: str, error: str | None = None, wall: float | None = None, warnings: Sequence[str] = (),
-               **extra) -> None:
-        _write_json(out_dir / "status.json", {
-            "status": status, "error": error, "overrides": settings,
-            "wall_time_s": time.perf_counter() - started if wall is None else wall,
-            "warnings": list(warnings), "environment": environment(), **extra})
-
-    previous = read_status(out_dir)
+    job_settings = settings(overrides)
+    mode = OmegaConf.select(hydra, "hydra.mode", default=None) if hydra is not None else None
+    folder = Folder.found(out_dir, getattr(mode, "name", mode) == "MULTIRUN")
+    record = partial(_record, out_dir, job_settings, started)
     try:
         conf = validate(cfg)
-        if previous is not None and previous.get("status") == "ok":
-            if not conf.resume:
-                raise InputError(f"{out_dir} already holds a finished run: pass resume=true to keep it and skip, "
-                                 "or choose another output folder")
+        folder.admit(conf.resume, job_settings)
     except InputError as err:
-        if previous is None or previous.get("status") != "ok":
+        if folder.fresh and folder.sweep:  # the sweep's report lists the refused job
+            write_record(out_dir, cfg, overrides, hydra)
             record("failed", f"InputError: {err}")
+        else:
+            folder.clear()  # a folder the job made; any other stays as it was
         raise
-    if conf.resume and previous is not None and previous.get("overrides") != settings:
-        # Left as it is: that run's record and checkpoints belong to its own settings.
-        raise InputError(f"resume: {out_dir} holds a run with other settings ({previous.get('overrides')}), "
-                         f"not {settings}: it cannot continue this one; use a new folder")
-    if conf.resume and previous is not None and previous.get("status") == "ok":
-        log.info("resume: %s already finished, skipped", out_dir)
+    if conf.resume and folder.previous is not None and folder.previous.get("status") == "ok":
+        print(f"resume: {out_dir} already holds this finished run: skipped, untouched")  # not logged: its log is kept
         return json.loads((out_dir / "metrics.json").read_text()).get("heldout_loss")
+    write_record(out_dir, cfg, overrides, hydra)
     record("running")
+    log.info("outputs in %s; loading torch ...", out_dir)  # the first line: the imports take seconds
     try:
         from nct.run.pipeline import (
             run,  # lazy: its imports are ~3 s of start-up, after validation
         )
 
         result, warnings = run(conf, cfg, out_dir, started)
+    except InputError as err:  # found by the pipeline (a file's checks, the memory, the device): refused too
+        if folder.fresh and not folder.sweep:
+            folder.clear()
+        else:
+            record("failed", f"InputError: {err}")
+        raise
     except MethodError as err:  # expected: the reason is the whole story
         record("diverged" if isinstance(err, DivergenceError) else "failed", f"{type(err).__name__}: {err}")
         raise

@@ -17,6 +17,7 @@ from omegaconf import DictConfig
 from nct.acquisition.io import load_sinogram, save_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
+from nct.acquisition.times import slow_rotation_warning
 from nct.moments.determinacy import (
     determinacy_warnings,
     motion_determinacy,
@@ -26,7 +27,7 @@ from nct.physics.projector import fbp_frames
 from nct.run import export
 from nct.run.config import FileConf, NCTConf, RunSize, check_memory
 from nct.run.consistency import check_geometry, geometry_warnings
-from nct.run.job import read_status
+from nct.run.folder import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.tables import write_csv
 from nct.run.tracking import (
@@ -58,7 +59,8 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     one, else ``image.size`` pixels over ``data.extent``); a file's sizes are checked against the
     memory here (a simulation's in `validate`)."""
     if isinstance(conf.data, FileConf):
-        sino = load_sinogram(conf.data.path, conf.data.sidecar)
+        log.info("reading %s ...", conf.data.path)
+        sino = load_sinogram(conf.data.path, conf.data.sidecar, conf.data.times_unit)
         sino = sino if conf.data.i0 is None else replace(sino, i0=conf.data.i0)
         if sino.truth is not None:
             grid, frame_times = ImageGrid(sino.truth.frames.shape[-1], sino.truth.extent), sino.truth.times
@@ -77,6 +79,8 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     grid = conf.image.build()
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
     frame_times = scanner.frame_times(conf.image.frames_per_rotation)
+    log.info("simulating the %s phantom: %d views of %d bins ...", conf.phantom.name, scanner.n_views,
+             conf.scanner.n_bins)
     sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
     return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
@@ -86,6 +90,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
     """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, NeuralCT's parts
     (``nct_masks`` [F, K, H, W]: each object's inside; ``nct_background`` [H, W] where there is one),
     extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
+    log.info("FBP: %d frames of %d x %d pixels ...", len(acq.frame_times), acq.grid.size, acq.grid.size)
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
     parts: dict[str, np.ndarray] = {}
     extra: dict = {}
@@ -93,6 +98,7 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
     if conf.method == "nct":
         from nct.method.reconstruct import reconstruct
 
+        log.info("NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...")
         result = reconstruct(
             acq.sino, acq.grid, acq.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
             log_dir=out_dir, logger=conf.logger.name,
@@ -114,7 +120,8 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
 def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
     the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (`determinacy_warnings`, `turn_warnings`, `geometry_warnings`, `suspect_fit`)."""
+    run's warnings (a file's `slow_rotation_warning`, `determinacy_warnings`, `turn_warnings`, a file's
+    `geometry_warnings`, `suspect_fit`)."""
     import torch
 
     if conf.threads is not None:
@@ -129,8 +136,11 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
     frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
-    warnings = (determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
-                + geometry_warnings(geometry, acq.sino, conf.suspect) + suspect_fit(conf, acq, extra))
+    from_file = isinstance(conf.data, FileConf)  # a simulation's geometry and times are those that made its data
+    warnings = ((slow_rotation_warning(acq.sino.angles, acq.sino.times, conf.data.times_unit) if from_file else [])
+                + determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
+                + (geometry_warnings(geometry, acq.sino, conf.suspect) if from_file else [])
+                + suspect_fit(conf, acq, extra))
     result: dict = {"times": acq.frame_times.tolist(), **extra,
                     "motion_determinacy": asdict(motion) if motion is not None else None,
                     "geometry_check": asdict(geometry) if geometry is not None else None}
@@ -144,6 +154,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     elif trace:
         log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
+    log.info("writing the frames, pictures and movie ...")
     write_outputs(conf, acq, frames, parts, scored, result, out_dir)
     result["wall_time_s"] = time.perf_counter() - started  # TensorBoard's summary, written next, records it too
     if conf.logger.name == "tensorboard":
@@ -162,7 +173,7 @@ def suspect_fit(conf: NCTConf, acq: Acquisition, extra: dict) -> list[str]:
     if misfits is None:
         return []
     extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
-    return suspect_warnings(misfits, conf.suspect)
+    return suspect_warnings(misfits, conf.suspect, isinstance(conf.data, FileConf))
 
 
 def score_trace(trace: list, truth: np.ndarray, level: float) -> list[dict]:
@@ -182,7 +193,7 @@ def write_outputs(conf: NCTConf, acq: Acquisition, frames: dict[str, np.ndarray]
     export.save_reconstruction(out_dir / "reconstruction.npz", acq.frame_times, acq.grid.extent, frames | parts)
     shown = _shown(acq, frames)
     if conf.export.tiff:
-        export.save_tiffs(out_dir / "frames", shown)
+        export.save_tiffs(out_dir / "frames", shown, acq.frame_times, acq.grid.extent)
     if conf.export.png:
         export.save_strip(out_dir / "strip.png", shown, acq.frame_times, conf.export.strip_frames,
                           acq.grid.extent)

@@ -75,10 +75,13 @@ def heldout_misfits(sino: Sinogram, grid: ImageGrid, nct: float, heldout: Heldou
     return HeldoutMisfits(nct, fbp_misfit(sino, grid, fit, held, fbp), noise_misfit(sino.values))
 
 
-def suspect_warnings(m: HeldoutMisfits, conf: SuspectConf) -> list[str]:
+def suspect_warnings(m: HeldoutMisfits, conf: SuspectConf, from_file: bool) -> list[str]:
     """One line per reason to doubt the fit: beyond the noise's misfit, it misfits the held-out
-    views more than ``conf.fbp_ratio`` × FBP does, or more than ``conf.excess`` of their mean."""
+    views more than ``conf.fbp_ratio`` × FBP does, or more than ``conf.excess`` of their mean.
+    ``from_file``: the data came from a file, whose geometry may be wrong (a simulation's is not)."""
     nct, fbp = m.nct - m.noise, m.fbp - m.noise
+    causes = ("a wrong geometry in the file (fan or parallel, bin_spacing, detector_offset), too few steps or objects?"
+              if from_file else "too few steps or objects?")
     out = []
     if nct > conf.fbp_ratio * fbp:
         out.append(f"suspect fit: its held-out misfit {m.nct:.3g} is above FBP's {m.fbp:.3g} "
@@ -86,6 +89,5 @@ def suspect_warnings(m: HeldoutMisfits, conf: SuspectConf) -> list[str]:
                    "too few steps, or too few objects (data.n_objects)?")
     if nct > conf.excess:
         out.append(f"suspect fit: its held-out misfit {m.nct:.3g} leaves {nct:.1%} of the views' mean unexplained "
-                   f"beyond the noise (limit suspect.excess={conf.excess:g}): a wrong geometry in the file "
-                   "(fan or parallel, bin_spacing, detector_offset), too few steps or objects?")
+                   f"beyond the noise (limit suspect.excess={conf.excess:g}): {causes}")
     return out
