@@ -51,7 +51,7 @@ from nct.cli import main as cli
 from nct.cli.main import CONFIG_MODULE
 from nct.fields.conf import ModelConf
 from nct.fit.conf import LossConf, OptimConf, TrainerConf
-from nct.init.conf import InitConf
+from nct.init.conf import BackgroundConf, InitConf
 from nct.method.reconstruct import reconstruct
 from nct.scenes.phantoms import (
     CircleConf,
@@ -72,6 +72,8 @@ TINY = [
     "optim.fit_steps=5",
     "optim.refine=false",
     "export.strip_frames=3",
+    "data.n_objects=1",  # the scene given: these runs test the pipeline's mechanics, not the choice of model
+    "background=none",
 ]
 
 
@@ -142,6 +144,7 @@ MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_term
 TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
 OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
 INIT = InitConf(frames_per_rotation=12)
+NO_BACKGROUND = BackgroundConf(name="none")  # the paper's scene: K objects on an empty background, nothing chosen
 
 
 def moving_disc(grid: ImageGrid = ImageGrid(32)) -> tuple[Sinogram, np.ndarray]:
@@ -171,7 +174,7 @@ def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: flo
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
     result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         n_objects=len(objects), optim=optim, init=INIT, motion=motion)
+                         n_objects=len(objects), optim=optim, init=INIT, motion=motion, background=NO_BACKGROUND)
     return sino, times, result
 
 

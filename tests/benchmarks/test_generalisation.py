@@ -165,7 +165,7 @@ def test_init_candidates_sees_what_the_run_segments(tmp_path):
     objects = [S.Ellipse((0.1, -0.15), 0.2, 0.1, 0.5, 1.5), S.Ellipse((-0.3, 0.2), 0.08, 0.07, 0.0, 0.6)]
     path = F.write_scene(static_scene(objects, 1, "cm", 30.0), tmp_path / "scene.npz", 48, 2, 0)
     overrides = ["image.size=48", "optim.init_steps=2", "optim.fit_steps=2", "logger=none", "export.gif=false",
-                 "export.tiff=false", "export.png=false"]
+                 "export.tiff=false", "export.png=false", "background=none"]
     candidates = load("diagnostics/init_candidates")
     frames, k, rng, kappa, share, route, judge, starts = candidates.segmentation_inputs(path, 2, overrides)
     assert frames.ndim == 3 and k == 2 and judge is not None and starts == 2

@@ -21,7 +21,7 @@ from nct.fields.sightings import mask_sightings
 from nct.fit.conf import LossConf
 from nct.method.reconstruct import reconstruct
 from nct.select.conf import SelectionConf
-from tests.conftest import INIT, OPTIM, TRAINER, moving_disc
+from tests.conftest import INIT, NO_BACKGROUND, OPTIM, TRAINER, moving_disc
 
 PLANE = torch.tensor([[0.7, -0.4], [0.2, 0.9]])  # template k(q) = PLANE[k] . q + OFFSET[k]: bilinear is exact
 OFFSET = torch.tensor([0.1, -0.3])
@@ -155,7 +155,7 @@ def test_tiny_rigid_reconstruction_runs_and_moves_the_disc(family):
     sino, times = moving_disc(grid)
     model = ModelConf(family=family, width=16, depth=2, resolution=32, levels=2)
     result = reconstruct(sino, grid, times, model, LossConf(), TRAINER, 0, log_dir=None, logger="none",
-                         motion=SelectionConf(rungs=["rigid"]), optim=OPTIM, init=INIT)
+                         motion=SelectionConf(rungs=["rigid"]), optim=OPTIM, init=INIT, background=NO_BACKGROUND)
     assert result.frames.shape == (6, 32, 32) and result.model["motion"] == "rigid"
     assert result.model["pose_terms"] == 4 and result.model["n_terms"] == 0
     # the frames' centroids travel the orbit (radius 0.15 FOV, 60 deg over the rotation)

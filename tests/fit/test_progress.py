@@ -21,6 +21,7 @@ from nct.init.conf import InitConf
 from nct.method.reconstruct import reconstruct
 from nct.scenes.phantoms import CircleConf, build_phantom
 from nct.scenes.simulate import simulate
+from tests.conftest import NO_BACKGROUND
 
 GRID = ImageGrid(32)
 
@@ -71,7 +72,7 @@ def test_without_a_bar_stages_log_progress_and_one_line_at_their_end(caplog, mon
         result = reconstruct(sino, GRID, times, ModelConf(width=8, depth=1, temporal_width=8, temporal_depth=1,
                                                           n_terms=2), LossConf(),
                              TrainerConf(accelerator="cpu", progress_bar=False, progress_every_s=1.0), 0,
-                             logger="none", optim=optim, init=InitConf(frames_per_rotation=6))
+                             logger="none", optim=optim, init=InitConf(frames_per_rotation=6), background=NO_BACKGROUND)
     # fields this small explain nothing in 6 steps: a restart joins (reconstruct.py's rule)
     planned = {"free_init": 4, "free_fit": 6, "free_restart_init": 4, "free_restart_fit": 6, "refine_init": 2,
                "refine_fit": 3}

@@ -14,7 +14,7 @@ from nct.fit.conf import LossConf
 from nct.fit.units import Units
 from nct.method.reconstruct import reconstruct
 from nct.run.metrics import frame_metrics
-from tests.conftest import INIT, MODEL, TRAINER, moving_disc
+from tests.conftest import INIT, MODEL, NO_BACKGROUND, TRAINER, moving_disc
 from tests.conftest import OPTIM as SHORT
 
 # The default schedule's shape, shortened: ten decays over the fit, so it ends at about 2 % of its rate
@@ -40,7 +40,7 @@ def dice_in(sino: Sinogram, times: np.ndarray, length: float, intensity: float) 
     """Median NCT Dice of the scene written in the given units, and its frames in unit terms."""
     grid = ImageGrid(32, length)
     result = reconstruct(rescaled(sino, length, intensity), grid, times, MODEL, LossConf(), TRAINER, 0,
-                         log_dir=None, logger="none", optim=OPTIM, init=INIT)
+                         log_dir=None, logger="none", optim=OPTIM, init=INIT, background=NO_BACKGROUND)
     truth = sino.truth
     scores = frame_metrics(result.frames, truth.frames * intensity, truth.level * intensity)
     assert result.init["length_unit"] == pytest.approx(length)

@@ -26,7 +26,7 @@ from nct.scenes.phantoms import (
     build_phantom,
 )
 from nct.scenes.simulate import simulate
-from tests.conftest import INIT, MODEL, OPTIM, TRAINER
+from tests.conftest import INIT, MODEL, NO_BACKGROUND, OPTIM, TRAINER
 
 GRID = ImageGrid(32)
 LONGER = replace(OPTIM, fit_steps=120, lr_decay_every=40)
@@ -57,7 +57,7 @@ def run(sino, times, starts: int, rank, monkeypatch):
     """Reconstruct with the judge's ranking replaced by ``rank(real ranking)``, trying ``starts`` starts."""
     monkeypatch.setattr(nct.init.starts, "segmentations", lambda *a, **k: rank(segmentations(*a, **k)))
     return reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none", n_objects=2,
-                       optim=LONGER, init=replace(INIT, starts=starts))
+                       optim=LONGER, init=replace(INIT, starts=starts), background=NO_BACKGROUND)
 
 
 def fits(result) -> dict:
@@ -125,7 +125,7 @@ def test_a_start_behind_the_best_stops_at_the_first_milestone(bright_and_faint, 
 def test_one_object_starts_once(bright_and_faint):
     sino, times = bright_and_faint
     result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none", n_objects=1,
-                         optim=replace(OPTIM, fit_steps=10), init=replace(INIT, starts=3))
+                         optim=replace(OPTIM, fit_steps=10), init=replace(INIT, starts=3), background=NO_BACKGROUND)
     names = [r["candidate"] for r in result.selection["table"]]
     assert result.init["starts_tried"] == 1 and names[0] == "free" and set(names) <= {"free", "free_restart"}
 

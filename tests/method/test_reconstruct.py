@@ -31,6 +31,7 @@ from tests.conftest import (
     GEOMETRIES,
     INIT,
     MODEL,
+    NO_BACKGROUND,
     OPTIM,
     TRAINER,
     closed_form_sinogram,
@@ -47,9 +48,9 @@ def acquisition():
     return moving_disc(GRID)
 
 
-def run(sino, times, optim=OPTIM, seed=0, loss=LossConf(), **kw):
+def run(sino, times, optim=OPTIM, seed=0, loss=LossConf(), background=NO_BACKGROUND, **kw):
     return reconstruct(sino, GRID, times, MODEL, loss, TRAINER, seed, log_dir=None, logger="none",
-                       optim=optim, init=INIT, **kw)
+                       optim=optim, init=INIT, background=background, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +158,7 @@ def test_bad_arguments(acquisition):
     with pytest.raises(ValueError, match="n_objects"):
         run(sino, times, n_objects=0)
     with pytest.raises(ValueError, match="logger"):
-        reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, None, logger="wandb")
+        reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, None, logger="wandb", background=NO_BACKGROUND)
     with pytest.raises(ValueError, match="render.band_start_px must be >= render.band_px"):
         RenderConf(band_px=2.0, band_start_px=1.0)
     with pytest.raises(ValueError, match="loss.tv_time"):
@@ -305,7 +306,7 @@ def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_marg
     model = ModelConf(width=32, depth=2, temporal_width=32, temporal_depth=2, n_terms=16)
     optim = OptimConf(init_steps=100, fit_steps=300, refine=False, batch_views=10, warmup_steps=10, lr_decay_every=30)
     result = reconstruct(sino, grid, times, model, LossConf(), TrainerConf(accelerator="cpu", progress_bar=False), 0,
-                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24))
+                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24), background=NO_BACKGROUND)
     level = sino.truth.level
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))

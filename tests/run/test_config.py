@@ -4,6 +4,7 @@ cannot fit in memory are refused before anything is allocated."""
 import subprocess
 import sys
 from dataclasses import replace
+from functools import partial
 from importlib.resources import files
 from pathlib import Path
 
@@ -129,10 +130,20 @@ def test_range_errors_name_the_key(override, key):
     assert key in str(info.value)
 
 
-def test_a_simulation_names_at_least_one_object_to_fit():
-    assert config.SimulateConf(n_objects=2).n_objects == 2 and config.SimulateConf().n_objects is None
-    with pytest.raises(ValueError, match=r"data\.n_objects must be >= 1 \(or null: one per object of the phantom"):
-        config.SimulateConf(n_objects=0)
+@pytest.mark.parametrize("conf", [config.SimulateConf, partial(config.FileConf, path="x.npz")])
+def test_the_objects_to_fit_are_chosen_from_the_data_unless_a_whole_number_is_given(conf):
+    assert conf(n_objects=2).n_objects == 2 and conf().n_objects == "auto"
+    assert config.chosen_objects("auto") is None and config.chosen_objects(3) == 3
+    for bad in (0, -1, 1.5, "two", True):
+        with pytest.raises(ValueError, match=r"data\.n_objects must be auto or a whole number >= 1"):
+            conf(n_objects=bad)
+
+
+def test_data_n_objects_from_the_command_line(tmp_path):
+    assert validate(compose_config(["data.n_objects=3"])).data.n_objects == 3
+    assert validate(compose_config([])).data.n_objects == "auto" and validate(compose_config([])).background.name == "auto"
+    with pytest.raises(InputError, match="data.n_objects"):
+        validate(compose_config(["data.n_objects=zero"]))
 
 
 def test_default_run_is_the_circle_experiment():

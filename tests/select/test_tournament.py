@@ -118,3 +118,34 @@ def test_no_finished_candidate_is_an_error():
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)
+
+
+K1, K2, K2_IMAGE = SceneModel(1), SceneModel(2), SceneModel(2, "image")
+
+
+def test_scene_models_are_compared_at_the_same_rung_by_the_scene_tolerance():
+    """A freer scene model must lead a simpler one at the same rung by ``scene_tolerance`` to go on; a simpler
+    one may trail by as much; another scene model's other rungs set no bound."""
+    t = Tournament(1000, 100, replace(CONF, scene_tolerance=0.1))
+    t.record(Candidate(K1, "free"), history([1.0] * 10), 1000, 1.0)
+    two = Candidate(K2, "free")
+    assert t.stops(two)(history([0.95] * 3)) and not t.stops(two)(history([0.9] * 3))
+    assert not t.stops(Candidate(K2, "static"))(history([9.0] * 3))  # K1's free fit says nothing of K2's static
+    t2 = Tournament(1000, 100, replace(CONF, scene_tolerance=0.1))
+    t2.record(Candidate(K2_IMAGE, "free"), history([1.0] * 10), 1000, 1.0)
+    assert not t2.stops(Candidate(K2, "free"))(history([1.09] * 3)) and t2.stops(Candidate(K2, "free"))(history([1.11] * 3))
+
+
+def test_the_simplest_scene_model_within_its_tolerance_wins_then_its_simplest_rung():
+    conf = replace(CONF, scene_tolerance=0.1)
+    t = Tournament(1000, 100, conf)
+    t.record(Candidate(K2, "free"), history([1.0] * 10), 1000, 1.0)
+    t.record(Candidate(K2_IMAGE, "free"), history([0.95] * 10), 1000, 0.95)
+    t.record(Candidate(K2, "rigid"), history([1.02] * 10), 1000, 1.02)
+    v = t.verdict()
+    assert v.winner == Candidate(K2, "rigid") and "scene model k2_none" in v.reason
+    assert v.rows[1].verdict.startswith("scene model k2_image") and v.rows[1].background == "image"
+    t.record(Candidate(K1, "free"), history([2.0] * 10), 1000, 2.0)
+    assert t.verdict().winner == Candidate(K2, "rigid")  # one object explains the views far worse
+    t.record(Candidate(SceneModel(3, "image"), "free"), history([0.5] * 10), 1000, 0.5)
+    assert t.verdict().winner.scene == SceneModel(3, "image")  # a clearly better freer model wins

@@ -41,21 +41,22 @@ class InitConf:
         require(self.starts >= 1, "init.starts", ">= 1", self.starts)
 
 
-BACKGROUNDS = ("none", "image")
+BACKGROUNDS = ("auto", "none", "image")
 
 
 @dataclass
 class BackgroundConf:
     """What lies under the moving objects (config group ``background``; background.py).
 
-    name: "none" (the paper's: K objects on an empty background) or "image" (a static pixel image
-    b(x) under the objects, fitted with them; the objects are then found in what moves).
+    name: "none" (the paper's: K objects on an empty background), "image" (a static pixel image
+    b(x) under the objects, fitted with them; the objects are then found in what moves) or "auto" (both
+    offered, the held-out views choose: select/scene.py).
     moving_share: a pixel belongs to the moving region where the FBP frames' standard deviation
     over time exceeds this share of its 99.9th percentile (a share, so the rule holds at any
     contrast; the region is then widened by 2 pixels and its holes filled).
     """
 
-    name: str = "none"
+    name: str = "auto"
     moving_share: float = 0.35
 
     def __post_init__(self) -> None:

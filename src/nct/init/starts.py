@@ -9,7 +9,7 @@ segmentation wins, and the fit moves its boundary, so one start is enough there.
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
@@ -21,17 +21,34 @@ from nct.init.background import lone_mover, moving_problem, static_start
 from nct.init.conf import BackgroundConf, InitConf
 from nct.init.judge import sinogram_judge
 from nct.init.sdf import masks_to_sdf
-from nct.init.segmentation import segmentations
+from nct.init.segmentation import Judge, Segmentation, segmentations
 
 log = logging.getLogger(__name__)
 
 
-def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
-                background: BackgroundConf | None = None) -> list[Start]:
-    """The starts of a run, best judged first: the judge's ``init.starts`` best segmentations with
-    K >= 2, the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain
-    the fitted views, which also gives a(k)). With ``background=image`` the objects are sought in
-    what moves, over a static background's start (background.py)."""
+@dataclass(frozen=True)
+class Found:
+    """A scene model's judged segmentations, best first (``ranked``: the ones it starts from), before any
+    becomes a start: ``prob`` is where its objects were sought (over a background, what moves) and ``background``
+    the static image [H, W] they start over (None: none)."""
+
+    prob: Problem
+    ranked: list[Segmentation]
+    background: np.ndarray | None = None
+
+    def start(self, i: int) -> Start:
+        """Start ``i``: segmentation ``i`` as SDF frames (Algorithm 2), where its objects were seen, the background."""
+        seg = self.ranked[i]
+        return Start(masks_to_sdf(seg.masks, self.prob.grid.pixel_size, workers=torch.get_num_threads()),
+                     seg.intensities, seg, sightings(self.prob, seg.masks), self.background)
+
+
+def search(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
+           background: BackgroundConf | None = None) -> Found:
+    """The judged segmentations a run starts from, best first: the judge's ``init.starts`` best with K >= 2,
+    the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain the fitted views,
+    which also gives a(k)). With ``background=image`` the objects are sought in what moves, over a static
+    background's start (background.py)."""
     static = None
     if background is not None and background.name == "image":
         static = static_start(prob.fbp, background.moving_share)
@@ -42,16 +59,25 @@ def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Ge
         if n_objects == 1 and static.moving.any():
             moved = lone_mover(prob, moved, static.moving)
         prob = moved
-    judge = None
-    if init.levels == "sinogram":
-        fitted = torch.from_numpy(prob.fit_views)
-        views = prob.views
-        judge = sinogram_judge(prob.init_times, views.values[fitted], views.angles[fitted], views.times[fitted],
-                               views.geometry, prob.grid.extent)
-    ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge)
-    chosen = ranked[:init.starts] if n_objects > 1 else ranked[:1]
-    return [Start(masks_to_sdf(s.masks, prob.grid.pixel_size, workers=torch.get_num_threads()), s.intensities, s,
-                  sightings(prob, s.masks), None if static is None else static.image) for s in chosen]
+    ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge_of(prob, init))
+    return Found(prob, ranked[:init.starts] if n_objects > 1 else ranked[:1], None if static is None else static.image)
+
+
+def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
+                background: BackgroundConf | None = None) -> list[Start]:
+    """Every start ``search`` finds (each as SDF frames), best judged first."""
+    found = search(prob, n_objects, init, rng, background)
+    return [found.start(i) for i in range(len(found.ranked))]
+
+
+def judge_of(prob: Problem, init: InitConf) -> Judge | None:
+    """The sinogram judge of segmentations of ``prob``'s FBP frames by its fitted views (judge.py; None with
+    ``init.levels=fbp``)."""
+    if init.levels != "sinogram":
+        return None
+    fitted, views = torch.from_numpy(prob.fit_views), prob.views
+    return sinogram_judge(prob.init_times, views.values[fitted], views.angles[fitted], views.times[fitted],
+                          views.geometry, prob.grid.extent)
 
 
 def sightings(prob: Problem, masks: np.ndarray) -> Sightings:

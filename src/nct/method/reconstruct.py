@@ -35,10 +35,10 @@ from nct.fit.stages import FieldStage, SinogramFit
 from nct.fit.trainer import RunClock, snapshot
 from nct.init.conf import BackgroundConf, InitConf
 from nct.init.sdf import binarise, masks_to_sdf
-from nct.select.candidates import Candidate, SceneModel
+from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
 from nct.select.race import race
-from nct.select.scene import SceneSetup, set_up
+from nct.select.scene import Preparation, SceneSetup, scene_setups
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +100,7 @@ def reconstruct(
     logger: str = "tensorboard",
     fbp_filter: str = "ramp",
     fbp_window_deg: float = 180.0,
-    n_objects: int = 1,
+    n_objects: int | None = None,
     motion: SelectionConf | None = None,
     optim: OptimConf | None = None,
     render: RenderConf | None = None,
@@ -112,21 +112,22 @@ def reconstruct(
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
     The data are fitted in the method's units (fit/units.py) and the frames, SDFs and intensities
-    returned in the data's. Every candidate (``motion.rungs`` x the starts) is fitted and scored on the
-    held-out views in one tournament (select/tournament.py); the winner is refined (``optim.refine``).
-    ``background=image``: a static image under the objects, fitted with them (background.py).
+    returned in the data's. Every candidate (a scene model: ``n_objects`` and ``background``, each chosen from
+    the data where None or auto (select/scene.py); ``motion.rungs`` x the starts) is fitted and scored on the
+    held-out views in one tournament (select/race.py); the winner is refined (``optim.refine``).
+    ``background=image``: a static image under the objects, fitted with them (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
-    if n_objects < 1:
-        raise ValueError(f"n_objects must be >= 1, got {n_objects}")
+    if n_objects is not None and n_objects < 1:
+        raise ValueError(f"n_objects must be >= 1 (or None: chosen from the data), got {n_objects}")
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
-    setups = [set_up(sino, grid, SceneModel(n_objects, background.name), seed, loss, init, heldout, background,
-                     (fbp_filter, fbp_window_deg))]
+    prepared = Preparation(sino, grid, loss, init, heldout, (fbp_filter, fbp_window_deg))
+    setups = scene_setups(prepared, n_objects, seed, background)
     verdict, fitted, nets = race(setups, session, model, seed, motion, optim, render)
     winner = verdict.winner
     chosen = next(s for s in setups if s.model == winner.scene)
@@ -172,9 +173,9 @@ def _refine(prob: Problem, session: Session, net: SpaceTimeField, fit: SinogramF
 def _init_record(chosen: SceneSetup, winner: Candidate, levels_from: str) -> dict:
     """metrics.json's ``init``: the winner's start (init/segmentation.py's route, levels), the units, in the data's, and the
     degrees of view angle a held axis leaves its object's own frame seen over (fit/problem.py; None: none held)."""
-    seg, prob, units = chosen.starts[winner.start].segmentation, chosen.prob, chosen.prob.units
+    seg, prob, units = chosen.found.ranked[winner.start], chosen.prob, chosen.prob.units
     return {"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": levels_from, "start": winner.start,
-            "starts_tried": len(chosen.starts), "levels_misfit": seg.misfit,
+            "starts_tried": chosen.n_starts, "levels_misfit": seg.misfit,
             "frame_coverage_deg": prob.frame_coverage_deg, "background": seg.background * units.intensity,
             "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
             "intensity_unit": units.intensity}

@@ -44,28 +44,38 @@ from nct.scenes.phantoms import (
 from nct.select.conf import SelectionConf
 
 
+def check_n_objects(value: Any) -> None:
+    """``data.n_objects`` is "auto" or a whole number >= 1 (an override gives an int, a YAML "auto" a str)."""
+    if value != "auto" and not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+        raise ValueError(f"data.n_objects must be auto or a whole number >= 1, got {value!r}")
+
+
+def chosen_objects(value: Any) -> int | None:
+    """The K a user set (``data.n_objects``), None where it is left to the data ("auto")."""
+    return None if value == "auto" else int(value)
+
+
 @dataclass
 class SimulateConf:
     """Simulated acquisition of ``phantom``; ``noise_i0``: incident photons per ray (None: noiseless);
-    ``n_objects``: K, the objects to fit (None: one per object of the phantom; a scene of a moving
-    part inside static anatomy names how many parts move)."""
+    ``n_objects``: K, the objects of distinct intensity to fit ("auto": chosen from the data, never read off
+    the phantom; over a background, K counts the moving parts)."""
 
     name: str = "simulate"
     noise_i0: float | None = None
-    n_objects: int | None = None
+    n_objects: Any = "auto"
 
     def __post_init__(self) -> None:
         if self.noise_i0 is not None and not self.noise_i0 > 0:
             raise ValueError(f"data.noise_i0 must be > 0 (or null for no noise), got {self.noise_i0}")
-        if self.n_objects is not None and self.n_objects < 1:
-            raise ValueError(f"data.n_objects must be >= 1 (or null: one per object of the phantom), "
-                             f"got {self.n_objects}")
+        check_n_objects(self.n_objects)
 
 
 @dataclass
 class FileConf:
     """A sinogram file in the documented ``.npz`` format, or a TIFF stack whose other keys are in the
-    ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects to fit.
+    ``sidecar`` ``.npz`` (null: the TIFF's path ending ``.npz``); ``n_objects``: K, the objects of distinct
+    intensity to fit ("auto": chosen from the data; over a background, K counts the moving parts).
     ``extent``: side of the reconstructed field of view in the file's length unit when the file
     has no truth (null: the diameter every view covers); with a truth, its grid.
     ``i0``: incident counts per ray behind the values' Poisson noise, for ``loss.data_term=poisson``
@@ -76,7 +86,7 @@ class FileConf:
     name: str = "file"
     path: str = MISSING
     sidecar: str | None = None
-    n_objects: int = 1
+    n_objects: Any = "auto"
     extent: float | None = None
     i0: float | None = None
     times_unit: str | None = None
@@ -85,8 +95,7 @@ class FileConf:
         if self.times_unit is not None and self.times_unit not in TIMES_UNITS:
             raise ValueError(f"data.times_unit must be one of {', '.join(TIMES_UNITS)} (or null: seconds, checked), "
                              f"got '{self.times_unit}'")
-        if self.n_objects < 1:
-            raise ValueError(f"data.n_objects must be >= 1, got {self.n_objects}")
+        check_n_objects(self.n_objects)
         if self.extent is not None and not self.extent > 0:
             raise ValueError(f"data.extent must be > 0 (or null for the detector's width), got {self.extent}")
         if self.i0 is not None and not (self.i0 > 0 and math.isfinite(self.i0)):

@@ -25,7 +25,7 @@ from nct.moments.determinacy import (
 )
 from nct.physics.projector import fbp_frames
 from nct.run import export
-from nct.run.config import FileConf, NCTConf, RunSize, check_memory
+from nct.run.config import FileConf, NCTConf, RunSize, check_memory, chosen_objects
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.folder import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
@@ -51,7 +51,7 @@ class Acquisition:
     sino: Sinogram
     grid: ImageGrid
     frame_times: np.ndarray
-    n_objects: int
+    n_objects: int | None
 
 
 def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
@@ -74,7 +74,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
             frame_times = 0.5 * (edges[:-1] + edges[1:])
         check_memory(conf, RunSize(grid.size, len(frame_times), *sino.values.shape), image_key,
                      f"data.path={conf.data.path}")
-        return Acquisition(sino, grid, frame_times, conf.data.n_objects)
+        return Acquisition(sino, grid, frame_times, chosen_objects(conf.data.n_objects))
     scanner = conf.scanner.build(conf.image.extent)
     grid = conf.image.build()
     phantom = build_phantom(conf.phantom, scanner.rotation_time)
@@ -82,7 +82,7 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     log.info("simulating the %s phantom: %d views of %d bins ...", conf.phantom.name, scanner.n_views,
              conf.scanner.n_bins)
     sino = simulate(phantom, scanner, grid, frame_times, conf.data.noise_i0, rng)
-    return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
+    return Acquisition(sino, grid, frame_times, chosen_objects(conf.data.n_objects))
 
 
 def reconstruct_all(conf: NCTConf, acq: Acquisition,

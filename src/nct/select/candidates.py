@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 
 from nct.fields.conf import RUNGS
 
+BACKGROUND_ORDER = ("none", "image")  # the scene models' backgrounds, simplest first
+
 if TYPE_CHECKING:
     from nct.select.conf import SelectionConf
 
@@ -19,6 +21,11 @@ class SceneModel:
 
     n_objects: int
     background: str = "none"
+
+    @property
+    def simplicity(self) -> tuple[int, int]:
+        """Lower is simpler: no background before a static image, then fewer objects."""
+        return BACKGROUND_ORDER.index(self.background), self.n_objects
 
     @property
     def label(self) -> str:

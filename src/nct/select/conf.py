@@ -27,6 +27,8 @@ class SelectionConf:
         starts of the thorax met within 1-3.5 % at step 300 or 500 and the one behind finished ahead on
         2 of seeds 0-4 (seed 0's heart 0.975 -> 0.981, for 1.35x the run's time); the fixed subset's stopped
         fits were 12 % or more behind and none would have won (benchmarks/results/background, session 45).
+    scene_tolerance: relative held-out misfit within which a simpler scene model (fewer objects; no background
+        before a static image) beats a better one, compared at the same rung (select/tournament.py).
     """
 
     rungs: list[str] = field(default_factory=lambda: ["free"])
@@ -35,6 +37,7 @@ class SelectionConf:
     band_f_max: Optional[float] = 0.5
     band_min_rotations: float = 1.5
     milestone_margin: float = 0.05
+    scene_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
         require(len(self.rungs) >= 1 and all(r in RUNGS for r in self.rungs), "motion.rungs",
@@ -42,5 +45,6 @@ class SelectionConf:
         require(len(set(self.rungs)) == len(self.rungs), "motion.rungs", "without repeats", self.rungs)
         require(0 < self.first_budget <= 1, "motion.first_budget", "in (0, 1]", self.first_budget)
         require(self.tolerance >= 0, "motion.tolerance", ">= 0", self.tolerance)
+        require(self.scene_tolerance >= 0, "motion.scene_tolerance", ">= 0", self.scene_tolerance)
         require(self.milestone_margin >= 0, "motion.milestone_margin", ">= 0", self.milestone_margin)
         require(self.band_f_max is None or self.band_f_max > 0, "motion.band_f_max", "> 0 or null", self.band_f_max)

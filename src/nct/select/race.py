@@ -13,7 +13,7 @@ import torch
 from nct.errors import DivergenceError
 from nct.fields.base import SpaceTimeField
 from nct.fields.build import build_field
-from nct.fields.conf import ModelConf
+from nct.fields.conf import RUNGS, ModelConf
 from nct.fit.conf import OptimConf, RenderConf
 from nct.fit.problem import Problem
 from nct.fit.session import Fitted, Session, at_rate, init_fit, sinogram_fit, streams
@@ -29,64 +29,97 @@ EMPTY = 0.999  # a misfit above this share of an empty image's explains nothing:
 # its sigmoid tails and scores a hair below the empty image (the tiny test's small disc: 1 - 2e-8)
 
 
-def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int, motion: SelectionConf,
-                optim: OptimConf, render: RenderConf,
-                ) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField]]:
-    """Fit every candidate of every scene model and choose one (select/tournament.py). All InitFits run first; the sinogram
-    fits then run from the best-started candidate on, so that the later ones race the best histories. A fit that
-    ends above where it started, or explains the check views no better than an empty image, has lost its way
-    (an object fell out of the band, where no gradient reaches it): a restart joins the tournament at
-    ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own
-    weights and InitFit) where that InitFit explained nothing either. A fit that diverges drops out (its
-    restart joins likewise); the run fails with its error only when no candidate finishes. Each candidate
-    draws from its own streams (fitting.streams); the paper's field continues its scene model's generator."""
-    by_model = {s.model: s for s in setups}
-    nets: dict[Candidate, SpaceTimeField] = {}
-    started: dict[Candidate, tuple[float, dict, np.random.Generator]] = {}
+class Race:
+    """The fits of one run's candidates, entered in one ``tournament``: each candidate's field (``nets``), its
+    InitFit (``started``: misfit, state, generator) and its sinogram fit (``fitted``); ``diverged``: the first
+    divergence, the run's error when no candidate finishes."""
 
-    def start(cand: Candidate) -> None:
-        setup = by_model[cand.scene]
-        rng, torch_seed = (setup.rng, seed) if cand.continues_run else streams(seed, cand.key)
+    def __init__(self, setups: list[SceneSetup], session: Session, model: ModelConf, seed: int,
+                 motion: SelectionConf, optim: OptimConf, render: RenderConf) -> None:
+        self.by_model = {s.model: s for s in setups}
+        self.session, self.model, self.seed, self.optim, self.render = session, model, seed, optim, render
+        self.nets: dict[Candidate, SpaceTimeField] = {}
+        self.started: dict[Candidate, tuple[float, dict, np.random.Generator]] = {}
+        self.fitted: dict[Candidate, Fitted] = {}
+        self.diverged: DivergenceError | None = None
+        self.tournament = Tournament(optim.fit_steps, session.check_every if len(setups[0].prob.held_views) else 0,
+                                     motion)
+
+    def start(self, cand: Candidate) -> None:
+        """Build ``cand``'s field and InitFit it to its start, from the candidate's own streams."""
+        setup, optim = self.by_model[cand.scene], self.optim
+        rng, torch_seed = (setup.rng, self.seed) if cand.continues_run else streams(self.seed, cand.key)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
-            conf = model if cand.f_max is None else replace(model, f_max=cand.f_max)
-            nets[cand] = net = build_field(conf, cand.scene.n_objects, torch.Generator().manual_seed(torch_seed),
-                                           cand.rung, setup.prob.span)
-            begin = setup.starts[cand.start]
+            conf = self.model if cand.f_max is None else replace(self.model, f_max=cand.f_max)
+            self.nets[cand] = net = build_field(conf, cand.scene.n_objects, torch.Generator().manual_seed(torch_seed),
+                                                cand.rung, setup.prob.span)
+            begin = setup.start(cand.start)
             begin = begin if cand.turning is None else turned_start(setup.prob, begin, cand.turning)
-            misfit = init_fit(setup.prob, session, net, cand.name, begin, optim.init_steps, optim, render, rng,
-                              optim.coarse_size)
-        started[cand] = misfit, copy.deepcopy(net.state_dict()), rng
+            misfit = init_fit(setup.prob, self.session, net, cand.name, begin, optim.init_steps, optim, self.render,
+                              rng, optim.coarse_size)
+        self.started[cand] = misfit, copy.deepcopy(net.state_dict()), rng
 
+    def run(self, pool: list[Candidate]) -> None:
+        """InitFit every candidate of ``pool``, then fit them from the best-started on; a restart joins where a
+        fit lost its way."""
+        for cand in pool:
+            self.start(cand)
+        queue = sorted(pool, key=lambda c: self.started[c][0])
+        while queue:
+            cand = queue.pop(0)
+            prob = self.by_model[cand.scene].prob
+            empty = EMPTY * prob.empty_misfit()
+            base = replace(cand, restart=False)
+            if cand.restart and self.started[base][0] >= empty:
+                self.start(cand)
+            elif cand.restart:
+                self.nets[cand], self.started[cand] = self.nets[base], self.started[base]
+            lost, done = _fit(cand, prob, self.session, self.nets[cand], self.started[cand], self.seed,
+                              self.tournament, (self.optim, self.render), empty)
+            if isinstance(done, DivergenceError):
+                self.diverged = self.diverged or done
+            else:
+                self.fitted[cand] = done
+            if lost and not cand.restart:
+                log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
+                queue.insert(0, replace(cand, restart=True))
+
+    def verdict(self) -> Verdict:
+        """The tournament's verdict; the first divergence where no candidate finished."""
+        if self.diverged is not None and all(e.pruned for e in self.tournament.entries):
+            raise self.diverged
+        return self.tournament.verdict()
+
+
+def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int, motion: SelectionConf,
+         optim: OptimConf, render: RenderConf) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField]]:
+    """Fit the candidates of the run's scene models and choose one (select/tournament.py). One scene model: every
+    candidate in one round. Several: first each scene model's freest rung (the scene models compared at one rung),
+    then the chosen scene model's other candidates. A fit that ends above where it started, or explains the check
+    views no better than an empty image, has lost its way (an object fell out of the band, where no gradient
+    reaches it): a restart joins at ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh
+    draw of the field (its own weights and InitFit) where that InitFit explained nothing either. A fit that
+    diverges drops out (its restart joins likewise); the run fails with its error only when no candidate
+    finishes. Each candidate draws from its own streams (session.streams); the paper's field continues its scene
+    model's generator."""
+    state = Race(setups, session, model, seed, motion, optim, render)
     named = len(setups) > 1
-    pool = [c for s in setups for c in candidates(
-        motion, len(s.starts), s.prob.span, s.model, 0 if s.prob.part_orientations is None else s.model.n_objects, named)]
-    for cand in pool:
-        start(cand)
-    tournament = Tournament(optim.fit_steps, session.check_every if len(setups[0].prob.held_views) else 0, motion)
-    empty = EMPTY * setups[0].prob.empty_misfit()
-    fitted: dict[Candidate, Fitted] = {}
-    diverged: DivergenceError | None = None  # the first: the run's error when no candidate finishes
-    queue = sorted(pool, key=lambda c: started[c][0])
-    while queue:
-        cand = queue.pop(0)
-        base = replace(cand, restart=False)
-        if cand.restart and started[base][0] >= empty:
-            start(cand)
-        elif cand.restart:
-            nets[cand], started[cand] = nets[base], started[base]
-        lost, done = _fit(cand, by_model[cand.scene].prob, session, nets[cand], started[cand], seed, tournament,
-                          (optim, render), empty)
-        if isinstance(done, DivergenceError):
-            diverged = diverged or done
-        else:
-            fitted[cand] = done
-        if lost and not cand.restart:
-            log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
-            queue.insert(0, replace(cand, restart=True))
-    if diverged is not None and all(e.pruned for e in tournament.entries):
-        raise diverged
-    return tournament.verdict(), fitted, nets
+    if not named:
+        state.run(_pool(setups[0], motion, named))
+        return state.verdict(), state.fitted, state.nets
+    freest = replace(motion, rungs=[max(motion.rungs, key=RUNGS.index)], band_f_max=None)
+    first = [c for s in setups for c in candidates(freest, s.n_starts, s.prob.span, s.model, 0, named)]
+    state.run(first)
+    chosen = state.by_model[state.verdict().winner.scene]
+    state.run([c for c in _pool(chosen, motion, named) if c not in first])
+    return state.verdict(), state.fitted, state.nets
+
+
+def _pool(setup: SceneSetup, motion: SelectionConf, named: bool) -> list[Candidate]:
+    """Every candidate of one scene model (candidates.py), a turning part's included where one is held."""
+    turning = 0 if setup.prob.part_orientations is None else setup.model.n_objects
+    return candidates(motion, setup.n_starts, setup.prob.span, setup.model, turning, named)
 
 
 def _fit(cand: Candidate, prob: Problem, session: Session, net: SpaceTimeField,

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from nct.fit.stages import HeldoutHistory
-from nct.select.candidates import Candidate
+from nct.select.candidates import Candidate, SceneModel
 from nct.select.conf import SelectionConf
 
 
@@ -83,16 +83,26 @@ class Tournament:
 
     def to_win_at(self, candidate: Candidate, step: int) -> float:
         """The misfit ``candidate`` must not exceed at ``step`` to be chosen were the recorded candidates'
-        misfits there final (inf: none reached it): parsimony's bound against each of them."""
+        misfits there final (inf: none reached it): parsimony's bound against each comparable one."""
         bounds = []
         for e in self.entries:
             seen = self._at(e.history, step) if e.steps >= step else None
-            if seen is None:
-                continue
-            other = e.candidate.simplicity
-            factor = (1 + self.conf.tolerance) ** ((other > candidate.simplicity) - (other < candidate.simplicity))
-            bounds.append(seen * factor)
+            factor = self._factor(candidate, e.candidate)
+            if seen is not None and factor is not None:
+                bounds.append(seen * factor)
         return min(bounds, default=math.inf)
+
+    def _factor(self, candidate: Candidate, other: Candidate) -> float | None:
+        """How far above ``other``'s misfit ``candidate``'s may lie and still win (parsimony): within a scene
+        model by the rungs' ``tolerance``, between scene models (at the same rung and band) by ``scene_tolerance``;
+        None where the two are not compared (other scene model and rung)."""
+        if other.scene == candidate.scene:
+            a, b, tolerance = other.simplicity, candidate.simplicity, self.conf.tolerance
+        elif other.simplicity == candidate.simplicity:
+            a, b, tolerance = other.scene.simplicity, candidate.scene.simplicity, self.conf.scene_tolerance
+        else:
+            return None
+        return (1 + tolerance) ** ((a > b) - (a < b))
 
     def verdict_at(self, candidate: Candidate, history: HeldoutHistory) -> str | None:
         """Why ``candidate``'s fit with this ``history`` stops now (None: it goes on): its latest check is a
@@ -122,31 +132,54 @@ class Tournament:
         return entry
 
     def verdict(self) -> Verdict:
-        """Parsimony among the finished candidates: the simplest within (1 + tolerance) of the best."""
+        """Parsimony among the finished candidates, the scene model first: the simplest scene model whose best
+        misfit is within (1 + scene_tolerance) of the best, then within it the simplest rung within (1 + tolerance)
+        of its best, and that rung's best candidate."""
         finished = [e for e in self.entries if e.pruned is None and math.isfinite(e.misfit)]
         if not finished:
             raise ValueError("no candidate finished its fit")
-        best = min(e.misfit for e in finished)
-        bound = (1 + self.conf.tolerance) * best
-        model = min(e.candidate.simplicity for e in finished if e.misfit <= bound)
-        winner = min((e for e in finished if e.candidate.simplicity == model), key=lambda e: e.misfit)
-        rows = []
-        for e in self.entries:
-            if e is winner:
-                why = "winner"
-            elif e.pruned:
-                why = e.pruned
-            elif e.candidate.simplicity == winner.candidate.simplicity:
-                why = f"held-out misfit {e.misfit / winner.misfit - 1:+.1%} against {winner.candidate.name}, of the same model"
-            elif e.misfit <= bound:
-                why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
-            else:
-                why = f"held-out misfit {e.misfit / best - 1:+.1%} against the best"
-            c = e.candidate
-            rows.append(Row(c.name, c.scene.n_objects, c.scene.background, c.rung, c.f_max, c.start, c.turning,
-                            c.restart, e.steps, e.misfit, why))
         best_entry = min(finished, key=lambda e: e.misfit)
-        reason = (f"{winner.candidate.name}: the best held-out misfit ({best:.4g})" if winner is best_entry else
+        scenes = {e.candidate.scene: min(f.misfit for f in finished if f.candidate.scene == e.candidate.scene)
+                  for e in finished}
+        scene = min((s for s, m in scenes.items() if m <= (1 + self.conf.scene_tolerance) * best_entry.misfit),
+                    key=lambda s: s.simplicity)
+        ours = [e for e in finished if e.candidate.scene == scene]
+        bound = (1 + self.conf.tolerance) * scenes[scene]
+        model = min(e.candidate.simplicity for e in ours if e.misfit <= bound)
+        winner = min((e for e in ours if e.candidate.simplicity == model), key=lambda e: e.misfit)
+        rows = [self._row(e, winner, bound, scenes) for e in self.entries]
+        ours_best = min(ours, key=lambda e: e.misfit)
+        return Verdict(winner.candidate, rows, self._reason(winner, ours_best, best_entry, len(scenes) > 1))
+
+    def _row(self, e: Entry, winner: Entry, bound: float, scenes: dict[SceneModel, float]) -> Row:
+        """``e``'s line of the table, its verdict against the ``winner`` (``bound``: the winner's scene model's
+        rung tolerance bound; ``scenes``: each scene model's best misfit)."""
+        chosen = winner.candidate.scene
+        if e is winner:
+            why = "winner"
+        elif e.pruned:
+            why = e.pruned
+        elif e.candidate.scene != chosen:
+            why = (f"scene model {e.candidate.scene.label}: its best held-out misfit {scenes[e.candidate.scene]:.4g} "
+                   f"against {scenes[chosen]:.4g} of {chosen.label}, "
+                   + ("the simpler" if chosen.simplicity < e.candidate.scene.simplicity else "the better"))
+        elif e.candidate.simplicity == winner.candidate.simplicity:
+            why = f"held-out misfit {e.misfit / winner.misfit - 1:+.1%} against {winner.candidate.name}, of the same model"
+        elif e.misfit <= bound:
+            why = f"within {self.conf.tolerance:.0%} of the best; {winner.candidate.name} is simpler"
+        else:
+            why = f"held-out misfit {e.misfit / scenes[chosen] - 1:+.1%} against the best"
+        c = e.candidate
+        return Row(c.name, c.scene.n_objects, c.scene.background, c.rung, c.f_max, c.start, c.turning, c.restart,
+                   e.steps, e.misfit, why)
+
+    def _reason(self, winner: Entry, ours: Entry, best: Entry, scenes: bool) -> str:
+        """Why ``winner`` won, in a line: against ``ours``, its scene model's best, and where several ``scenes``
+        were compared, the ``best`` of all."""
+        reason = (f"{winner.candidate.name}: the best held-out misfit ({ours.misfit:.4g})" if winner is ours else
                   f"{winner.candidate.name}: the simplest within {self.conf.tolerance:.0%} of the best "
-                  f"({winner.misfit:.4g} against {best_entry.candidate.name}'s {best:.4g})")
-        return Verdict(winner.candidate, rows, reason)
+                  f"({winner.misfit:.4g} against {ours.candidate.name}'s {ours.misfit:.4g})")
+        if scenes:
+            reason += (f"; scene model {winner.candidate.scene.label}, the simplest within "
+                       f"{self.conf.scene_tolerance:.0%} of the best ({best.candidate.name}'s {best.misfit:.4g})")
+        return reason
