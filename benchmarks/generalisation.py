@@ -110,17 +110,32 @@ class Outcome:
                     for m in ("nct", "fbp")}
 
     @cached_property
-    def winner(self) -> str:
-        """The candidate the run's tournament chose (metrics.json ``selection``; "" for a failed run), read once."""
+    def chosen(self) -> dict:
+        """The candidate the run's tournament chose, its row of the table (metrics.json ``selection``: winner,
+        n_objects, background; empty for a failed run), read once."""
         path = self.nct.job.run_dir / "metrics.json"
         if self.nct.failed or not path.is_file():
-            return ""
-        return json.loads(path.read_text()).get("selection", {}).get("winner", "")
+            return {}
+        selection = json.loads(path.read_text()).get("selection", {})
+        return next((row for row in selection.get("table", []) if row["candidate"] == selection.get("winner")), {})
+
+    @property
+    def winner(self) -> str:
+        return self.chosen.get("candidate", "")
+
+    @property
+    def model_right(self) -> bool | None:
+        """Whether the run fitted the scene's own model: one object per ellipse, no background (None: failed)."""
+        if not self.chosen:
+            return None
+        return self.chosen["n_objects"] == len(self.scene.objects) and self.chosen["background"] == "none"
 
     def row(self) -> dict:
         """The scene's parameters, categories and both methods' scores, flat."""
         return {**self.scene.parameters(), **self.scene.categories(), **self.nested_dice(),
-                "nct_status": self.nct.status, "winner": self.winner, "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
+                "nct_status": self.nct.status, "winner": self.winner, "chosen_k": self.chosen.get("n_objects"),
+                "chosen_background": self.chosen.get("background"), "model_right": self.model_right,
+                "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
                 "fbp_status": self.fbp.status, "fbp_dice": self.fbp.dice, "fbp_mse": self.fbp.mse,
                 "nct_minus_fbp": self.nct_dice - self.fbp_dice, "below_fbp": self.below_fbp,
                 "wall_time_s": self.nct.wall_time_s, "run_time_s": self.nct.run_time_s,
@@ -133,16 +148,22 @@ def first_line(text: str | None) -> str:
     return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
 
 
-def scene_overrides(scene: Scene, path: Path, extra: Sequence[str], n_objects: int | None = None) -> tuple[str, ...]:
-    """The ``nct`` overrides that reconstruct ``scene``'s file with K = ``n_objects`` (None: its number of objects)."""
+def scene_overrides(scene: Scene, path: Path, extra: Sequence[str], n_objects: int | None = None,
+                    told: bool = True) -> tuple[str, ...]:
+    """The ``nct`` overrides that reconstruct ``scene``'s file: ``told``, with K = ``n_objects`` (None: its number
+    of objects) and, unless ``extra`` names one, no background (the model a user would have to know); else
+    with nothing about the scene, as a user would run the file."""
+    if not told:
+        return ("data=file", f"data.path={path.resolve()}", *QUIET, *extra)
     k = len(scene.objects) if n_objects is None else n_objects
-    return ("data=file", f"data.path={path.resolve()}", f"data.n_objects={k}", *QUIET, *extra)
+    background = () if any(o.startswith("background=") for o in extra) else ("background=none",)
+    return ("data=file", f"data.path={path.resolve()}", f"data.n_objects={k}", *background, *QUIET, *extra)
 
 
-def plan(out: Path, scenes: Sequence[Scene], files: Sequence[Path], extra: Sequence[str]) -> list[Job]:
+def plan(out: Path, scenes: Sequence[Scene], files: Sequence[Path], extra: Sequence[str], told: bool) -> list[Job]:
     """One NeuralCT job per scene, in ``out/runs/<scene>/nct``."""
-    return [Job({"scene": s.name}, "nct", NCT_SEED, scene_overrides(s, f, extra), out / "runs" / s.name / "nct")
-            for s, f in zip(scenes, files)]
+    return [Job({"scene": s.name}, "nct", NCT_SEED, scene_overrides(s, f, extra, told=told),
+                out / "runs" / s.name / "nct") for s, f in zip(scenes, files)]
 
 
 def fbp_fallbacks(records: Sequence[Record]) -> list[Job]:
@@ -273,6 +294,12 @@ def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Accep
           o.nct.status if not o.nct.failed else f"{o.nct.status}: {first_line(o.nct.error)}", o.winner,
           o.nct.wall_time_s] for o in results])
     nested = [(o, o.nested_dice()) for o in results if o.scene.own_levels()]
+    judged = [o for o in results if o.model_right is not None]
+    wrong = markdown_table(["scene", "objects", "chosen K", "chosen background", "NCT Dice", "FBP Dice"],
+                           [[o.scene.name, len(o.scene.objects), o.chosen["n_objects"], o.chosen["background"],
+                             o.nct_dice, o.fbp_dice] for o in judged if not o.model_right])
+    models = (f"The run fitted the scene's own model (one object per ellipse, no background) on "
+              f"{sum(o.model_right for o in judged)} of {len(judged)} finished runs; the others:")
     per_nested = markdown_table(
         ["scene", "motions", "intensities", "FBP Dice at own level", "NCT Dice at own level"],
         [[o.scene.name, " ".join(m.motion.kind for m in o.scene.objects),
@@ -285,6 +312,7 @@ def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Accep
                       "MSE: each run's median over frames; per category: the median over scenes.", "",
                       "## Acceptance", "", *[f"- {line}" for line in checks.lines()], "",
                       "## Per category", "", per_category, "", "![NCT against FBP](nct_vs_fbp.png)", "",
+                      "## The scene model each run chose", "", models, "", wrong, "",
                       "## Nested objects at their own level (issue 9, item 5)", "",
                       "Dice of each nested object at its containers' level plus half its own (the worst nested "
                       "object of the scene; the threshold applies to the whole frame).", "", per_nested, "",
@@ -309,6 +337,9 @@ def parse(argv: Sequence[str] | None = None):
                         help="run and report only these of the drawn scenes (e.g. scene006,scene038)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
                         help="an nct override added to every run (repeatable), e.g. a step count")
+    parser.add_argument("--told", action="store_true", help="pass each scene's model (data.n_objects = its objects, "
+                        "background=none) as a user who knew it would; default: nothing about the scene, as a user "
+                        "would run a file")
     args = parser.parse_args(argv)
     args.scenes = args.scenes or (QUICK_SCENES if args.quick else FULL_SCENES)
     args.size = args.size or (QUICK_SIZE if args.quick else FULL_SIZE)
@@ -327,7 +358,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         scenes = [s for s in scenes if s.name in args.only]
     files = [write_scene(s, args.out / "scenes" / f"{s.name}.npz", args.size, args.frames, args.seed) for s in scenes]
     print(f"{len(scenes)} scenes written to {args.out / 'scenes'}")
-    nct = run_jobs(plan(args.out, scenes, files, args.override), args.jobs, args.resume, args.timeout, args.threads)
+    nct = run_jobs(plan(args.out, scenes, files, args.override, args.told), args.jobs, args.resume, args.timeout, args.threads)
     fallback = run_jobs(fbp_fallbacks(nct), args.jobs, args.resume, args.timeout, args.threads)
     results = outcomes(scenes, nct, fallback)
     categories = category_rows(results)

@@ -123,17 +123,33 @@ def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
 
 
 def test_each_scene_and_family_reports_the_candidate_its_tournament_chose(tmp_path):
+    """The winner and its scene model come from the run's table; a model of the scene's own objects on no
+    background is right, any other K or a background is reported as chosen wrong."""
     scenes = [s for s in S.draw_scenes(0, 12) if s.moving][:2]
     runs = []
-    for i, winner in enumerate(("free_start1", "free")):
+    for i, (winner, k, background) in enumerate((("free_start1", len(scenes[0].objects), "none"),
+                                                 ("k1_image_free", 1, "image"))):
         (tmp_path / str(i)).mkdir()
-        (tmp_path / str(i) / "metrics.json").write_text(json.dumps({"selection": {"winner": winner}}))
+        row = {"candidate": winner, "n_objects": k, "background": background}
+        (tmp_path / str(i) / "metrics.json").write_text(json.dumps({"selection": {"winner": winner, "table": [row]}}))
         runs.append(Record(job=Job({"scene": "s"}, "nct", 0, (), tmp_path / str(i)), status="ok", dice=0.9, mse=0.01))
     failed = G.Outcome(scenes[0], record("nct", "failed", math.nan), record("fbp", "ok", 0.9))
     results = [G.Outcome(s, r, record("fbp", "ok", 0.9)) for s, r in zip(scenes, runs)] + [failed]
-    assert [o.row()["winner"] for o in results] == ["free_start1", "free", ""]
+    assert [o.row()["winner"] for o in results] == ["free_start1", "k1_image_free", ""]
+    assert [o.row()["model_right"] for o in results] == [True, False, None]
     rows = {(r["category"], r["value"]): r for r in G.category_rows(results)}
-    assert rows["all", "all"]["winners"] == "free_start1:1 free:1 none:1"
+    assert rows["all", "all"]["winners"] == "free_start1:1 k1_image_free:1 none:1"
+    note = G.report(results, G.category_rows(results), G.acceptance(results), "cmd", 1.0)
+    assert "own model (one object per ellipse, no background) on 1 of 2 finished runs" in note
+
+
+def test_a_told_run_passes_the_scenes_model_and_a_users_run_nothing(tmp_path):
+    scene = S.draw_scenes(0, 1)[0]
+    told = G.scene_overrides(scene, tmp_path / "f.npz", [])
+    assert f"data.n_objects={len(scene.objects)}" in told and "background=none" in told
+    assert "background=none" not in G.scene_overrides(scene, tmp_path / "f.npz", ["background=image"], 1)
+    assert not any(o.startswith(("data.n_objects", "background")) for o in
+                   G.scene_overrides(scene, tmp_path / "f.npz", [], told=False))
 
 
 def test_acceptance_without_target_scenes_says_so_rather_than_fail():
