@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -127,6 +128,7 @@ def reconstruct(
     heldout: HeldoutConf | None = None,
     background: BackgroundConf | None = None,
     resume: bool = False,
+    lap: Callable[[str], None] = lambda phase: None,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
@@ -135,6 +137,7 @@ def reconstruct(
     held-out views in one tournament (select.py); the winner is refined (``optim.refine``).
     ``background=image``: a static image under the objects, fitted with them (background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
+    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
@@ -149,8 +152,10 @@ def reconstruct(
                    parts=n_objects > 1 and background.name != "image")
     run_rng = np.random.default_rng(seed)
     starts = find_starts(prob, n_objects, init, run_rng, background)
+    lap("initialisation")
     verdict, fitted, nets = _tournament(prob, session, model, starts, n_objects, (seed, run_rng), motion, optim,
                                         render)
+    lap("tournament")
     winner = verdict.winner
     net, fit, checked = nets[winner.name], fitted[winner.name].fit, fitted[winner.name].losses
     net.load_state_dict(fitted[winner.name].state)

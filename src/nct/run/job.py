@@ -21,6 +21,7 @@ from omegaconf import DictConfig
 
 from nct.errors import DivergenceError, InputError, MethodError
 from nct.run.config import validate
+from nct.run.phases import Instant
 
 log = logging.getLogger(__name__)
 
@@ -61,17 +62,17 @@ def _settings(overrides: list[str] | None) -> list[str]:
 
 
 def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
-            started: float | None = None) -> float | None:
+            started: Instant | None = None) -> float | None:
     """Validate, run and record one job; returns the held-out sinogram loss (for sweepers).
 
     ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
     skips a finished folder only when it was made with the same settings. ``started``: when the
-    job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
-    the start of its one wall time, which the log, status.json and metrics.json give alike.
+    job began (None: now; `nct.cli.main` gives a single run's process start), the start of its one
+    wall time, which the log, status.json and metrics.json give alike, and of its phases' CPU seconds.
     status.json's ``warnings``: those `nct.run.pipeline.run` returns (motion the data do not determine,
     a geometry the views contradict, why the fit is suspect), empty when nothing says so.
     """
-    started = time.perf_counter() if started is None else started
+    started = Instant.now() if started is None else started
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = _settings(overrides)
 
@@ -79,7 +80,7 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
                **extra) -> None:
         _write_json(out_dir / "status.json", {
             "status": status, "error": error, "overrides": settings,
-            "wall_time_s": time.perf_counter() - started if wall is None else wall,
+            "wall_time_s": time.perf_counter() - started.wall if wall is None else wall,
             "warnings": list(warnings), "environment": environment(), **extra})
 
     previous = read_status(out_dir)
