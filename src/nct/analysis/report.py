@@ -39,7 +39,8 @@ from nct.run.outcome import FINISHED
 from nct.run.phases import breakdown
 from nct.run.tables import fmt, markdown_table, write_csv
 
-#: Flattened metrics.json keys of a phase's wall seconds (``phases.wall_s.<phase>``) and a stage's (``stages.<stage>.wall_time_s``).
+#: Flattened metrics.json keys of a phase's wall seconds (``phases.wall_s.<phase>``) and a stage's
+#: (``stages.<stage>.wall_time_s``).
 PHASE_KEY, STAGE_WALL = "phases.wall_s.", ".wall_time_s"
 #: The per-job summaries of the summary's job table: those plotted, then the relative errors.
 JOB_STATS = (*SUMMARY_STATS, ("median_psnr", "PSNR dB"), ("median_ssim", "SSIM"))

@@ -88,7 +88,8 @@ def strip_figure(frames: dict[str, np.ndarray], times: np.ndarray, n_columns: in
         image = ax.imshow(_side_by_side(f[idx], gap), cmap="gray", vmin=0, vmax=vmax,
                           extent=(-extent / 2, centres[-1] + extent / 2, -extent / 2, extent / 2))
         last = r == rows - 1
-        ax.set_xticks([c + t for c in centres for t in ticks], [f"{t:g}" for _ in centres for t in ticks] if last else [])
+        labels = [f"{t:g}" for _ in centres for t in ticks] if last else []
+        ax.set_xticks([c + t for c in centres for t in ticks], labels)
         ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
         ax.tick_params(labelsize=6)
         ax.set_ylabel(name, fontsize=9)
