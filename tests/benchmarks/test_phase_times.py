@@ -1,0 +1,50 @@
+"""benchmarks/phase_times.py: each wrapped call's own time goes to its phase, the phases add up to the
+process's time, and every function it wraps is found in this version."""
+
+from __future__ import annotations
+
+from tests.conftest import load_benchmark as load_script
+
+phase_times = load_script("phase_times")
+
+
+class FakeTime:
+    """A clock that moves only when told (``spend``): wall and CPU seconds alike."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    def process_time(self) -> float:
+        return self.now - 90.0
+
+    def spend(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def test_a_call_counts_its_own_time_less_its_wrapped_callees(monkeypatch):
+    fake = FakeTime()
+    monkeypatch.setattr(phase_times, "time", fake)
+    monkeypatch.setattr(phase_times, "ORIGIN", (fake.perf_counter(), fake.process_time()))
+    clock = phase_times.PhaseClock()
+    fake.spend(3.0)  # start-up
+    inner = clock.wrap("inner", lambda: fake.spend(5.0))
+
+    def outer() -> None:
+        fake.spend(2.0)
+        inner()
+        inner()
+
+    clock.wrap("outer", outer)()
+    fake.spend(1.0)  # what no phase holds
+    record = clock.record(["x=1"])
+    assert record["wall_s"] == {"startup": 3.0, "outer": 2.0, "inner": 10.0, "other": 1.0}
+    assert record["total_wall_s"] == 16.0 and record["cpu_s"]["startup"] == 13.0  # CPU from the process's start
+
+
+def test_every_function_it_times_is_in_this_version():
+    """A renamed pipeline function would send its time to 'other' unnoticed: the harness must find them all."""
+    found, missing = phase_times.wrappers(phase_times.PhaseClock())
+    assert missing == [] and len(found) == len(phase_times.PHASE_OF)
