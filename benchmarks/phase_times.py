@@ -9,8 +9,10 @@ no phase holds (Hydra, seeding, the job's records, exit). CPU seconds are the wh
 (``time.process_time``, every thread): on a shared machine they move less with the load than wall
 seconds do.
 
-Run: python benchmarks/phase_times.py --out FILE.json -- threads=1 logger=none hydra.run.dir=DIR
-(the baseline: the same with its source tree first on PYTHONPATH).
+Run: python benchmarks/phase_times.py --out FILE.json -- threads=1 hydra.run.dir=DIR
+     (another version: the same with its source tree first on PYTHONPATH)
+     python benchmarks/phase_times.py --before B1.json B2.json ... --after A1.json A2.json ...
+     (a markdown table of the records: median and range per phase)
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import atexit  # noqa: E402
 import importlib  # noqa: E402
 import json  # noqa: E402
 import os  # noqa: E402
+import statistics  # noqa: E402
 import sys  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from functools import wraps  # noqa: E402
@@ -96,11 +99,40 @@ def wrappers(clock: PhaseClock) -> tuple[list[tuple[object, str, Callable]], lis
     return found, missing
 
 
+def compare(before: list[Path], after: list[Path]) -> str:
+    """Records of two versions (several runs each) as a markdown table: each phase's median CPU and wall
+    seconds [range] before and after, the process's totals and the machine's load."""
+    runs = {"before": [json.loads(p.read_text()) for p in before], "after": [json.loads(p.read_text()) for p in after]}
+
+    def cell(version: str, kind: str, phase: str) -> str:
+        values = [r[kind].get(phase, 0.0) for r in runs[version]]
+        return f"{statistics.median(values):.2f} [{min(values):.2f}–{max(values):.2f}]"
+
+    phases = list(dict.fromkeys(p for rs in runs.values() for r in rs for p in r["wall_s"]))
+    lines = ["| phase | CPU s before | CPU s after | wall s before | wall s after |", "|---|---|---|---|---|"]
+    lines += [f"| {p} | {cell('before', 'cpu_s', p)} | {cell('after', 'cpu_s', p)} | {cell('before', 'wall_s', p)} "
+              f"| {cell('after', 'wall_s', p)} |" for p in phases]
+    for version in runs:  # the totals as phases of their own
+        for r in runs[version]:
+            r["cpu_s"]["total"], r["wall_s"]["total"] = r["total_cpu_s"], r["total_wall_s"]
+    lines.append(f"| **whole process** | {cell('before', 'cpu_s', 'total')} | {cell('after', 'cpu_s', 'total')} "
+                 f"| {cell('before', 'wall_s', 'total')} | {cell('after', 'wall_s', 'total')} |")
+    loads = [f"{r['load_1min']:.1f}" for rs in runs.values() for r in rs]
+    return "\n".join(lines) + f"\n\nLoad (1-minute average) at each run's end: {', '.join(loads)}.\n"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, required=True, help="the JSON record to write")
+    parser.add_argument("--out", type=Path, help="the JSON record to write")
+    parser.add_argument("--before", type=Path, nargs="+", help="records to compare (no run): one version's ...")
+    parser.add_argument("--after", type=Path, nargs="+", help="... and the other's")
     parser.add_argument("overrides", nargs="*", help="nct's overrides (after --)")
     args = parser.parse_args()
+    if args.before or args.after:
+        print(compare(args.before or [], args.after or []))
+        return
+    if args.out is None:
+        parser.error("--out FILE (a run) or --before/--after FILE... (a comparison) is required")
     clock = PhaseClock()
     found, missing = wrappers(clock)
     for module, name, timed in found:
