@@ -80,12 +80,12 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     return Acquisition(sino, grid, frame_times, conf.data.n_objects or len(phantom.intensities))
 
 
-def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path, lap: Callable[[str], None]
+def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path, lap: Callable[[str], None] = lambda phase: None
                     ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict, list]:
     """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, NeuralCT's parts
     (``nct_masks`` [F, K, H, W]: each object's inside; ``nct_background`` [H, W] where there is one),
     extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``).
-    ``lap``: the run's stopwatch (`Phases.lap`), told as each phase ends."""
+    ``lap``: the run's stopwatch (`Phases.lap`), told as each phase ends (default: none)."""
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
     lap("fbp")
     parts: dict[str, np.ndarray] = {}
