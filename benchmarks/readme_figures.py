@@ -39,9 +39,9 @@ def run_nct(run_dir: Path, threads: int, *overrides: str) -> None:
 
 
 def movie_frame(movie: Path) -> np.ndarray:
-    """The middle frame of the run's movie [H, W, 3] uint8."""
-    frames = iio.imread(movie, index=None)
-    return frames[len(frames) // 2][..., :3]
+    """The middle frame of the run's movie [H, W, 3] uint8 (a grey movie's too: its GIF holds grey levels)."""
+    frames = iio.imread(movie, index=None, mode="RGB")
+    return frames[len(frames) // 2]
 
 
 def finished(run_dir: Path) -> Path:

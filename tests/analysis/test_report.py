@@ -132,6 +132,22 @@ def test_summary_lists_failed_unfinished_and_missing(displacement_sweep: Path):
     assert (displacement_sweep / "report" / "report.csv").is_file()
 
 
+def test_summary_says_where_each_jobs_time_went(displacement_sweep: Path):
+    """metrics.json ``phases`` per job, the tournament split into its stages' fits and selection; jobs from
+    before the phases were recorded are left out of that table, not shown as zeros."""
+    assert "## Where the time went" not in write_report(displacement_sweep).summary.read_text()
+    for num, startup in ((1, 4.0), (2, 6.0)):
+        path = displacement_sweep / str(num) / "metrics.json"
+        phases = {"wall_s": {"startup": startup, "data": 0.5, "tournament": 9.0, "exports": 0.5},
+                  "cpu_s": {"startup": 3.0, "data": 0.4, "tournament": 8.0, "exports": 0.4}}
+        stages = {"free_init": {"wall_time_s": 2.0}, "free_fit": {"wall_time_s": 6.5}}
+        path.write_text(json.dumps(json.loads(path.read_text()) | {"phases": phases, "stages": stages}))
+    text = write_report(displacement_sweep).summary.read_text()
+    assert "## Where the time went (wall s per phase" in text
+    assert "| job | phantom.displacement_deg | seed | startup | data | fits | selection | exports | wall s |" in text
+    assert "| 1 | 0 | 1 | 4 | 0.5 | 8.5 | 0.5 | 0.5 | 11 |\n| 2 | 0 | 2 | 6 | 0.5 | 8.5 | 0.5 | 0.5 | 12 |\n\n" in text
+
+
 def test_summary_lists_the_warnings_of_suspect_fits(displacement_sweep: Path):
     assert "## Warnings\n\nNone: no run warned." in write_report(displacement_sweep).summary.read_text()
     status = displacement_sweep / "4" / "status.json"

@@ -12,6 +12,7 @@ import torch
 from nct.cli import main as cli
 from nct.errors import InputError
 from nct.fit.trainer import check_accelerator
+from nct.run.phases import Instant
 
 QUICK = ["debug=tiny", "logger=none", "method=fbp"]
 
@@ -87,8 +88,8 @@ def test_help_lists_only_the_groups_users_pick(nct):
 
 
 def test_a_single_run_is_timed_from_the_process_start(monkeypatch):
-    monkeypatch.setattr(cli, "_PROCESS_START", [1.0])
-    assert cli.job_start(single=True) == 1.0
-    assert cli.job_start(single=True) > 1.0  # claimed: a later run in the same process starts its own clock
-    monkeypatch.setattr(cli, "_PROCESS_START", [1.0])
-    assert cli.job_start(single=False) > 1.0  # a sweep's job: from its own start
+    monkeypatch.setattr(cli, "_PROCESS_START", [(1.0, 0.5)])
+    assert cli.job_start(single=True) == Instant(1.0, 0.5)  # wall clock and CPU seconds alike
+    assert cli.job_start(single=True).wall > 1.0  # claimed: a later run in the same process starts its own clock
+    monkeypatch.setattr(cli, "_PROCESS_START", [(1.0, 0.5)])
+    assert cli.job_start(single=False).wall > 1.0  # a sweep's job: from its own start

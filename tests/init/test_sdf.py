@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
+from skimage.restoration import denoise_tv_chambolle
 
 from nct.acquisition.scanner import ImageGrid
-from nct.init.sdf import binarise, masks_to_sdf
+from nct.init.sdf import binarise, chambolle, masks_to_sdf
 from nct.run.metrics import dice
 
 GRID = ImageGrid(64)
@@ -78,3 +79,27 @@ def test_threads_give_the_same_sdf():
     rng = np.random.default_rng(3)
     masks = rng.random((5, 24, 24)) > 0.6
     np.testing.assert_array_equal(masks_to_sdf(masks, 0.1, workers=3), masks_to_sdf(masks, 0.1))
+
+
+@pytest.mark.parametrize(("weight", "max_num_iter"), [(0.5, 200), (0.1, 200), (0.5, 7)])
+def test_chambolle_is_scikit_images_to_the_bit(weight: float, max_num_iter: int):
+    """Its own arrays, the same arithmetic: a speckled mask and distances (stopped by the energy rule after
+    4-76 steps), and runs cut off by ``max_num_iter``."""
+    rng = np.random.default_rng(4)
+    mask, _ = disc()
+    speckled = mask ^ (rng.random(mask.shape) > 0.97)
+    distances = distance_transform_edt(mask) - distance_transform_edt(~mask)
+    for image in (speckled.astype(np.float64), distances):
+        ours = chambolle(image, weight, max_num_iter=max_num_iter)
+        np.testing.assert_array_equal(ours, denoise_tv_chambolle(image, weight=weight, max_num_iter=max_num_iter))
+        assert not np.array_equal(ours, image)
+
+
+def test_repeated_masks_get_the_sdf_each_would_alone():
+    """A still object's frames are one mask repeated: smoothed once, each frame gets the SDF it has alone."""
+    a, _ = disc(0.1, 0.0)
+    b, _ = disc(-0.1, 0.05)
+    stack = np.stack([a, b, a, a, b])
+    sdf = masks_to_sdf(stack, GRID.pixel_size)
+    for frame, mask in zip(sdf, stack):
+        np.testing.assert_array_equal(frame, masks_to_sdf(mask, GRID.pixel_size))

@@ -162,8 +162,10 @@ def test_configs_ship_inside_the_package_and_are_found_from_any_folder(tmp_path)
 
 
 def test_config_schemas_and_the_job_record_import_without_torch():
-    """So that bad input ends ``nct`` before torch is loaded (nct.run.job validates, then imports the pipeline)."""
-    code = "import sys, nct.run.job; print(sorted(m for m in ('torch', 'lightning') if m in sys.modules))"
+    """So that bad input ends ``nct`` before torch is loaded (nct.run.job validates, then imports the pipeline),
+    and before matplotlib and scipy's image modules (the letters phantom's glyphs load them when drawn)."""
+    heavy = ("torch", "lightning", "matplotlib", "scipy.ndimage")
+    code = f"import sys, nct.run.job, nct.cli.main; print(sorted(m for m in {heavy} if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"

@@ -34,10 +34,23 @@ def frames(n: int = 4, size: int = 16) -> dict[str, np.ndarray]:
 def test_strip_is_titled_scaled_in_length_units_and_has_a_colourbar():
     fig = strip_figure(frames(6), np.linspace(0, 0.5, 6), 4, EXTENT)
     assert figure_problems(fig, (LENGTH, INTENSITY)) == []
-    images = [ax for ax in fig.axes if ax.images]
-    assert len(images) == 3 * 4
-    assert all(ax.get_xlim() == pytest.approx((-EXTENT / 2, EXTENT / 2)) for ax in images)
-    assert [images[4 * r].get_ylabel() for r in range(3)] == ["truth", "fbp", "nct"]
+    rows = [ax for ax in fig.axes if ax.images]
+    assert [ax.get_ylabel() for ax in rows] == ["truth", "fbp", "nct"]
+    assert all(ax.get_ylim() == pytest.approx((-EXTENT / 2, EXTENT / 2)) for ax in rows)
+    assert rows[0].get_xlim()[0] == pytest.approx(-EXTENT / 2)  # the first frame over its field of view
+
+
+def test_strip_rows_hold_the_chosen_frames_side_by_side_under_their_times():
+    shown, times = frames(6), np.linspace(0, 0.5, 6)
+    fig = strip_figure(shown, times, 4, EXTENT)
+    chosen = [0, 2, 3, 5]  # 4 of 6 frames, evenly spread
+    rows = [ax for ax in fig.axes if ax.images]
+    for ax, f in zip(rows, shown.values()):
+        image = np.ma.masked_invalid(ax.images[0].get_array())
+        kept = image[:, ~image.mask.all(axis=0)]  # the blank columns between frames left out
+        np.testing.assert_array_equal(np.hsplit(kept.data, 4), f[chosen])
+    labels = [t.get_text() for t in rows[0].texts]
+    assert labels == [f"t = {times[i] * 1e3:.0f} ms" for i in chosen]
 
 
 def test_metric_plot_names_its_units_and_its_legend_covers_no_curve():
@@ -95,10 +108,25 @@ def test_movie_time_label_is_clear_of_panel_titles_and_images():
 
 def test_movie_has_a_picture_per_frame_at_fixed_size(tmp_path: Path):
     path = tmp_path / "movie.gif"
-    save_movie(path, frames(), np.array([0.0, 0.05, 0.1, 0.15]), fps=8, extent=EXTENT)
-    movie = iio.imread(path, index=None)
+    times = np.array([0.0, 0.05, 0.1, 0.15])
+    save_movie(path, frames(), times, fps=8, extent=EXTENT)
+    movie = iio.imread(path, index=None, mode="RGB")
     assert movie.shape[0] == 4 and movie.shape[-1] == 3
     assert not np.array_equal(movie[0], movie[1])  # the frames (and the label) change
+    np.testing.assert_array_equal(movie, movie_pictures(frames(), times, EXTENT))  # grey levels kept exactly
+
+
+def test_movie_in_a_colour_style_keeps_its_colours(tmp_path: Path):
+    """A style that colours the text makes pictures that are not grey: they are written in colour."""
+    import matplotlib
+
+    path, times = tmp_path / "movie.gif", np.array([0.0, 0.05])
+    with matplotlib.rc_context({"text.color": "red", "axes.labelcolor": "red"}):
+        save_movie(path, frames(2), times, fps=8, extent=EXTENT)
+        pictures = movie_pictures(frames(2), times, EXTENT)
+    movie = iio.imread(path, index=None, mode="RGB").astype(int)
+    assert (movie[..., 0] > movie[..., 1] + 100).any()  # red text survives
+    assert np.abs(movie - pictures).mean() < 2.0
 
 
 def test_movie_pictures_are_a_full_draw_of_each_frame():

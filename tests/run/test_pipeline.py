@@ -22,6 +22,7 @@ from nct.errors import InputError
 from nct.run import pipeline
 from nct.run.config import validate
 from nct.run.job import run_job
+from nct.run.phases import Instant
 from nct.run.pipeline import acquire
 from tests.conftest import TINY, compose_config
 
@@ -120,13 +121,33 @@ def test_bad_file_fails_cleanly_and_keeps_earlier_outputs(tiny_cfg, run_dir, tmp
 
 
 def test_one_wall_time_from_the_start_to_the_outputs_in_log_status_and_metrics(tiny_cfg, run_dir, caplog):
-    started = time.perf_counter() - 100.0  # e.g. the process's start, given by the CLI
+    started = Instant(time.perf_counter() - 100.0, time.process_time())  # e.g. the process's start, given by the CLI
     with caplog.at_level(logging.INFO, logger="nct.run.job"):
         run_job(tiny_cfg("method=fbp", "logger=none"), run_dir, started=started)
     wall = read(run_dir / "status.json")["wall_time_s"]
     assert read(run_dir / "metrics.json")["wall_time_s"] == wall
-    assert 100.0 < wall < time.perf_counter() - started
+    assert 100.0 < wall < time.perf_counter() - started.wall
     assert any(r.getMessage().startswith(f"wall time {wall:.1f} s") for r in caplog.records)
+    phases = read(run_dir / "metrics.json")["phases"]
+    assert list(phases["wall_s"]) == ["startup", "data", "checks", "fbp", "metrics", "exports"]
+    assert phases["wall_s"]["startup"] > 100.0  # from the given start
+    assert 0.99 * wall < sum(phases["wall_s"].values()) <= wall  # laps of one stopwatch: nothing unaccounted
+
+
+def test_phases_say_where_a_reconstructions_time_went(tiny_cfg, run_dir):
+    """metrics.json ``phases``: wall and CPU seconds of each phase, in the order the run met them, each
+    >= 0, adding up to the wall time; the tournament holds its stages' fits (metrics.json ``stages``)."""
+    run_job(tiny_cfg("optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", *QUIET), run_dir)
+    metrics = read(run_dir / "metrics.json")
+    wall, cpu = metrics["phases"]["wall_s"], metrics["phases"]["cpu_s"]
+    assert list(wall) == list(cpu) == ["startup", "data", "checks", "fbp", "initialisation", "tournament",
+                                       "refinement", "metrics", "exports"]
+    assert all(v >= 0 for v in [*wall.values(), *cpu.values()])
+    assert 0.99 * metrics["wall_time_s"] < sum(wall.values()) <= metrics["wall_time_s"]
+    stages = {name: s["wall_time_s"] for name, s in metrics["stages"].items()}
+    assert set(stages) == {"free_init", "free_fit", "refine_init", "refine_fit"}
+    assert stages["free_init"] + stages["free_fit"] <= wall["tournament"]
+    assert stages["refine_init"] + stages["refine_fit"] <= wall["refinement"]
 
 
 def test_each_phase_says_what_it_starts(tiny_cfg, run_dir, caplog):

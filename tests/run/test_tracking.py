@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import pytest
 from tensorboard import context
 from tensorboard.backend.event_processing import data_provider, plugin_event_multiplexer
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -109,6 +110,25 @@ def test_selection_is_in_metrics_selection_csv_and_tensorboard(tiny_cfg, run_dir
     session = EventAccumulator(str(run_dir / "tb" / "hparams"))
     session.Reload()
     assert session.Scalars("hp/n_params")[0].value == model["n_params"]
+
+
+def test_phases_are_in_tensorboard_with_each_candidates_fit(tiny_cfg, run_dir):
+    """Where the time went: a table as text, a row per candidate's stage under the fits, and a scalar per
+    phase, the tournament split into fits (its stages' own time, metrics.json ``stages``) and selection."""
+    run_job(tiny_cfg("motion.rungs=[static,free]", "optim.init_steps=5", "optim.fit_steps=5", "export.gif=false",
+                     "export.png=false", "export.tiff=false"), run_dir)
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    acc = EventAccumulator(str(run_dir / "tb"))
+    acc.Reload()
+    text = acc.Tensors("phases/text_summary")[0].tensor_proto.string_val[0].decode()
+    assert "| phase | wall s | CPU s | share of wall |" in text
+    assert all(f"| · {stage} |" in text for stage in ("static_init", "static_fit", "free_init", "free_fit"))
+    scalars = {tag: acc.Scalars(tag)[0].value for tag in acc.Tags()["scalars"] if tag.startswith("phases/")}
+    wall = metrics["phases"]["wall_s"]
+    assert set(scalars) == {f"phases/{p}" for p in wall if p != "tournament"} | {"phases/fits", "phases/selection"}
+    fits = sum(s["wall_time_s"] for s in metrics["stages"].values())
+    assert scalars["phases/fits"] == pytest.approx(fits, rel=1e-5)
+    assert scalars["phases/fits"] + scalars["phases/selection"] == pytest.approx(wall["tournament"], rel=1e-5)
 
 
 def test_stages_log_previews_residuals_and_heldout_validation(tiny_cfg, run_dir):

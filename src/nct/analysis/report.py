@@ -36,8 +36,12 @@ from nct.analysis.report_figures import (
 )
 from nct.analysis.truth_free import truth_free_lines
 from nct.run.outcome import FINISHED
+from nct.run.phases import breakdown
 from nct.run.tables import fmt, markdown_table, write_csv
 
+#: Flattened metrics.json keys of a phase's wall seconds (``phases.wall_s.<phase>``) and a stage's
+#: (``stages.<stage>.wall_time_s``).
+PHASE_KEY, STAGE_WALL = "phases.wall_s.", ".wall_time_s"
 #: The per-job summaries of the summary's job table: those plotted, then the relative errors.
 JOB_STATS = (*SUMMARY_STATS, ("median_psnr", "PSNR dB"), ("median_ssim", "SSIM"))
 
@@ -93,6 +97,29 @@ def _tv_table(jobs: Sequence[Job]) -> str:
     return markdown_table(["tv_space \\ tv_time", *(f"{t:g}" for t in times)], rows)
 
 
+def job_phases(job: Job) -> dict[str, float]:
+    """A job's wall seconds per phase (metrics.json ``phases``), the tournament split into its stages'
+    fits and selection (`nct.run.phases.breakdown`); empty for a job that recorded none."""
+    wall = {k.removeprefix(PHASE_KEY): float(v) for k, v in job.metrics.items() if k.startswith(PHASE_KEY)}
+    stages = {k.removeprefix("stages.").removesuffix(STAGE_WALL): float(v) for k, v in job.metrics.items()
+              if k.startswith("stages.") and k.endswith(STAGE_WALL)}
+    return breakdown(wall, stages)
+
+
+def _phases_section(jobs: Sequence[Job], varying: Sequence[str]) -> list[str]:
+    """Where each job's time went, a column per phase; none when no job recorded its phases."""
+    timed = [(j, job_phases(j)) for j in jobs]
+    timed = [(j, phases) for j, phases in timed if phases]
+    if not timed:
+        return []
+    names = union_keys(phases for _, phases in timed)
+    header = ["job", *varying, *names, "wall s"]
+    rows = [[str(j.num), *(short_value(j.overrides.get(k, "")) for k in varying), *(phases.get(n) for n in names),
+             j.wall_time_s] for j, phases in timed]
+    return ["## Where the time went (wall s per phase, metrics.json `phases`; fits: the tournament's stages, "
+            "selection: the rest of it)", "", markdown_table(header, rows), ""]
+
+
 def _first_line(error: str | None) -> str:
     lines = (error or "").strip().splitlines()
     return lines[0] if lines else "no error recorded"
@@ -121,6 +148,7 @@ def summary_lines(sweep_dir: Path, jobs: Sequence[Job], plots: dict[str, Path]) 
              *(j.metric(f"{m}.{s}") for s, _ in JOB_STATS for m in METHODS),
              fmt(j.metric("heldout_loss"), 4), str(j.metrics.get("selection.rung", "")), j.wall_time_s] for j in jobs]
     lines += ["## Jobs", "", markdown_table(header, rows), ""]
+    lines += _phases_section(jobs, varying)
     broken = [j for j in jobs if j.status != FINISHED or j.error]
     lines += ["## Failed, diverged, unfinished or missing", ""]
     lines += [f"- job {j.num} ({override_label(j, varying) or 'no varying override'}): **{j.status}**: "

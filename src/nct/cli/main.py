@@ -10,8 +10,9 @@ from __future__ import annotations
 import time
 
 # Before every other import: a single run's one wall time (log, status.json, metrics.json) starts
-# with the process, as the user's clock does; claimed by the first job (`job_start`).
-_PROCESS_START = [time.perf_counter()]
+# with the process, as the user's clock does, and so do its phases' CPU seconds; claimed by the first
+# job (`job_start`).
+_PROCESS_START = [(time.perf_counter(), time.process_time())]
 
 import os
 import sys
@@ -32,6 +33,7 @@ from omegaconf.errors import (
 from nct.cli.resume import resume_arguments
 from nct.errors import InputError, MethodError
 from nct.run.config import CONFIG_MODULE, describe, register_configs, unknown_key
+from nct.run.phases import Instant
 
 # Hydra plugins that optional extras install: the config Hydra misses without them -> the extra.
 PLUGIN_EXTRAS = {"hydra/sweeper/optuna": "optuna", "hydra/launcher/submitit": "slurm", "hydra/launcher/ray": "ray"}
@@ -58,12 +60,12 @@ def app(cfg: DictConfig) -> float | None:
         fail(message, exit_code(err))  # exits here, before Hydra's own report of the failed job
 
 
-def job_start(single: bool) -> float:
-    """When this job's wall time starts (``time.perf_counter``): the process's start for the first
-    ``single`` run of the process, else now (each job of a sweep, or a later run in the same process)."""
-    now = time.perf_counter()
+def job_start(single: bool) -> Instant:
+    """When this job's clock starts: the process's start for the first ``single`` run of the process,
+    else now (each job of a sweep, or a later run in the same process)."""
+    now = Instant.now()
     first = _PROCESS_START.pop() if _PROCESS_START else None
-    return first if single and first is not None else now
+    return Instant(*first) if single and first is not None else now
 
 
 def fail(message: str, code: int = 2) -> NoReturn:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import logging
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -108,6 +109,7 @@ def reconstruct(
     heldout: HeldoutConf | None = None,
     background: BackgroundConf | None = None,
     resume: bool = False,
+    lap: Callable[[str], None] = lambda phase: None,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
@@ -117,6 +119,7 @@ def reconstruct(
     held-out views in one tournament (select/race.py); the winner is refined (``optim.refine``).
     ``background=image``: a static image under the objects, fitted with them (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
+    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
@@ -128,7 +131,9 @@ def reconstruct(
     L.seed_everything(seed, verbose=False)
     prepared = Preparation(sino, grid, loss, init, heldout, (fbp_filter, fbp_window_deg))
     setups = scene_setups(prepared, n_objects, seed, background)
+    lap("initialisation")
     verdict, fitted, nets = race(setups, session, model, seed, motion, optim, render)
+    lap("tournament")
     winner = verdict.winner
     chosen = next(s for s in setups if s.model == winner.scene)
     prob = chosen.prob

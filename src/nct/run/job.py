@@ -27,6 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 from nct.errors import DivergenceError, InputError, MethodError
 from nct.run.config import validate
 from nct.run.folder import Folder, settings, write_record
+from nct.run.phases import Instant
 
 log = logging.getLogger(__name__)
 
@@ -54,28 +55,28 @@ def environment() -> dict[str, str]:
     return versions | ({"torch": torch.__version__} if torch is not None else {})
 
 
-def _record(out_dir: Path, job_settings: list[str], started: float, status: str, error: str | None = None,
+def _record(out_dir: Path, job_settings: list[str], started: Instant, status: str, error: str | None = None,
             wall: float | None = None, warnings: Sequence[str] = (), **extra) -> None:
     """Write the job's status.json (``wall`` None: the wall time so far)."""
     _write_json(out_dir / "status.json", {
         "status": status, "error": error, "overrides": job_settings,
-        "wall_time_s": time.perf_counter() - started if wall is None else wall,
+        "wall_time_s": time.perf_counter() - started.wall if wall is None else wall,
         "warnings": list(warnings), "environment": environment(), **extra})
 
 
 def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
-            started: float | None = None, hydra: DictConfig | None = None) -> float | None:
+            started: Instant | None = None, hydra: DictConfig | None = None) -> float | None:
     """Admit, run and record one job; returns the held-out sinogram loss (for sweepers).
 
     ``overrides``: the job's command-line overrides, kept in status.json so that ``resume=true``
     continues or skips a folder only when it was made with the same settings. ``started``: when the
-    job began (``time.perf_counter``; None: now; `nct.cli.main` gives a single run's process start),
-    the start of its one wall time, which the log, status.json and metrics.json give alike.
+    job began (None: now; `nct.cli.main` gives a single run's process start), the start of its one wall
+    time, which the log, status.json and metrics.json give alike, and of its phases' CPU seconds.
     ``hydra``: Hydra's config of the job (from the command line), written beside the job's config in
     ``.hydra/``; its mode tells a sweep's job. status.json's ``warnings``: those `nct.run.pipeline.run`
     returns (times, motion the data do not determine, a file's geometry, why the fit is suspect).
     """
-    started = time.perf_counter() if started is None else started
+    started = Instant.now() if started is None else started
     job_settings = settings(overrides)
     mode = OmegaConf.select(hydra, "hydra.mode", default=None) if hydra is not None else None
     folder = Folder.found(out_dir, getattr(mode, "name", mode) == "MULTIRUN")

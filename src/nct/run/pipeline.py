@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -29,12 +30,14 @@ from nct.run.config import FileConf, NCTConf, RunSize, check_memory, chosen_obje
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.folder import read_status
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
+from nct.run.phases import Instant, Phases
 from nct.run.tables import write_csv
 from nct.run.tracking import (
     run_hparams,
     write_frames,
     write_hparams,
     write_motion,
+    write_phases,
     write_selection,
     write_trace,
 )
@@ -85,13 +88,15 @@ def acquire(conf: NCTConf, rng: np.random.Generator) -> Acquisition:
     return Acquisition(sino, grid, frame_times, chosen_objects(conf.data.n_objects))
 
 
-def reconstruct_all(conf: NCTConf, acq: Acquisition,
-                    out_dir: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict, list]:
+def reconstruct_all(conf: NCTConf, acq: Acquisition, out_dir: Path, lap: Callable[[str], None] = lambda phase: None
+                    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict, list]:
     """FBP frames, and NeuralCT frames unless ``method=fbp``; returns frames by name, NeuralCT's parts
     (``nct_masks`` [F, K, H, W]: each object's inside; ``nct_background`` [H, W] where there is one),
-    extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``)."""
+    extra metrics and NeuralCT's trace (``method.TracePoint``s, empty unless ``trainer.snapshot_every_n_steps``).
+    ``lap``: the run's stopwatch (`Phases.lap`), told as each phase ends (default: none)."""
     log.info("FBP: %d frames of %d x %d pixels ...", len(acq.frame_times), acq.grid.size, acq.grid.size)
     frames = {"fbp": fbp_frames(acq.sino, acq.grid, acq.frame_times, conf.fbp.window_deg, conf.fbp.filter)}
+    lap("fbp")
     parts: dict[str, np.ndarray] = {}
     extra: dict = {}
     trace: list = []
@@ -105,8 +110,9 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
             fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=acq.n_objects,
             motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
             background=conf.background,
-            resume=conf.resume,
+            resume=conf.resume, lap=lap,
         )
+        lap("refinement")
         frames["nct"] = result.frames
         parts["nct_masks"] = result.sdf > 0
         if result.background is not None:
@@ -117,11 +123,12 @@ def reconstruct_all(conf: NCTConf, acq: Acquisition,
     return frames, parts, extra, trace
 
 
-def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[dict, list[str]]:
+def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: Instant) -> tuple[dict, list[str]]:
     """Do one run into ``out_dir``; return what goes into ``metrics.json``, whose ``wall_time_s`` is
-    the job's one wall time, from ``started`` (``time.perf_counter``) to its outputs written, and the
-    run's warnings (a file's `slow_rotation_warning`, `determinacy_warnings`, `turn_warnings`, a file's
-    `geometry_warnings`, `suspect_fit`)."""
+    the job's one wall time, from ``started`` to its outputs written, and ``phases`` where it went
+    (`nct.run.phases`), and the run's warnings (a file's `slow_rotation_warning`, `determinacy_warnings`,
+    `turn_warnings`, a file's `geometry_warnings`, `suspect_fit`)."""
+    phases = Phases(started)
     import torch
 
     if conf.threads is not None:
@@ -131,16 +138,20 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
 
         lightning.seed_everything(conf.seed, workers=True, verbose=False)
     rng = np.random.default_rng(conf.seed)
+    phases.lap("startup")
     acq = acquire(conf, rng)
     save_sinogram(out_dir / "sinogram.npz", acq.sino)
+    phases.lap("data")
     motion = motion_determinacy(acq.sino, acq.grid)
     geometry = check_geometry(acq.sino)
-    frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir)
+    phases.lap("checks")
+    frames, parts, extra, trace = reconstruct_all(conf, acq, out_dir, phases.lap)
     from_file = isinstance(conf.data, FileConf)  # a simulation's geometry and times are those that made its data
     warnings = ((slow_rotation_warning(acq.sino.angles, acq.sino.times, conf.data.times_unit) if from_file else [])
                 + determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
                 + (geometry_warnings(geometry, acq.sino, conf.suspect) if from_file else [])
                 + suspect_fit(conf, acq, extra))
+    phases.lap("checks")
     result: dict = {"times": acq.frame_times.tolist(), **extra,
                     "motion_determinacy": asdict(motion) if motion is not None else None,
                     "geometry_check": asdict(geometry) if geometry is not None else None}
@@ -154,9 +165,12 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: float) -> tuple[
     elif trace:
         log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
+    phases.lap("metrics")
     log.info("writing the frames, pictures and movie ...")
     write_outputs(conf, acq, frames, parts, scored, result, out_dir)
-    result["wall_time_s"] = time.perf_counter() - started  # TensorBoard's summary, written next, records it too
+    phases.lap("exports")
+    result["phases"] = phases.record()
+    result["wall_time_s"] = time.perf_counter() - started.wall  # TensorBoard's summary, written next, records it too
     if conf.logger.name == "tensorboard":
         write_summary(cfg, acq, frames, scored, result, out_dir)
     return result, warnings
@@ -216,7 +230,8 @@ def _shown(acq: Acquisition, frames: dict[str, np.ndarray]) -> dict[str, np.ndar
 
 def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarray],
                   scored: dict[str, FrameMetrics], result: dict, out_dir: Path) -> None:
-    """The TensorBoard summary: final metrics and wall time as hparams, the selection table, trace and frames."""
+    """The TensorBoard summary: final metrics and wall time as hparams, the selection table, trace, frames
+    and where the time went (``phases``)."""
     final = {f"hp/{m}_{k}": result[m][k] for m in scored for k in ("median_dice", "median_mse")}
     final["hp/heldout_loss"] = result.get("heldout_loss", float("nan"))
     final["hp/wall_time_s"] = result["wall_time_s"]
@@ -230,4 +245,5 @@ def write_summary(cfg: DictConfig, acq: Acquisition, frames: dict[str, np.ndarra
         write_motion(out_dir / "tb", result["motion_determinacy"])
     overrides = (read_status(out_dir) or {}).get("overrides", [])  # run_job records them before the run
     write_hparams(out_dir / "tb", run_hparams(cfg, overrides), final)
+    write_phases(out_dir / "tb", result["phases"], result.get("stages", {}))
     write_frames(out_dir / "tb", _shown(acq, frames))

@@ -19,6 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 from tensorboard.plugins.hparams.summary_v2 import hparams_pb
 from torch.utils.tensorboard import SummaryWriter
 
+from nct.run.phases import breakdown, phase_table, stage_walls
 from nct.run.tables import fmt, markdown_table
 
 #: Config keys that name a run in the HParams tab whatever its overrides: what was reconstructed, how.
@@ -108,3 +109,12 @@ def write_motion(tb_dir: Path, motion: dict) -> None:
                    f"between equally good centroid trajectories (threshold {fmt(motion['threshold_px'])} px), prior "
                    f"length scale {fmt(motion['length_scale_rot'])} rotations, misfit {fmt(motion['misfit_px'])} px")
         w.add_scalar("motion/ray_spread_px", motion["ray_spread_px"])
+
+
+def write_phases(tb_dir: Path, phases: dict, stages: dict) -> None:
+    """Where the run's time went (metrics.json ``phases``, `nct.run.phases`): a table as text (``phases``) and
+    each phase's wall seconds as a ``phases/<phase>`` scalar, the tournament split into fits and selection."""
+    with SummaryWriter(log_dir=str(tb_dir)) as w:
+        w.add_text("phases", phase_table(phases, stages))
+        for phase, seconds in breakdown(phases["wall_s"], stage_walls(stages)).items():
+            w.add_scalar(f"phases/{phase}", seconds)

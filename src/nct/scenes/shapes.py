@@ -19,15 +19,11 @@ from collections.abc import Callable
 from functools import lru_cache
 
 import numpy as np
-from matplotlib.font_manager import FontProperties
-from matplotlib.path import Path
-from matplotlib.textpath import TextPath
-from scipy.ndimage import distance_transform_edt
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 
 PROJECT_REFINE = 4  # rasterised scenes are projected from a grid this many times finer
-_GLYPH_FONT = FontProperties(family="DejaVu Sans", weight="bold")
+GLYPH_FONT = {"family": "DejaVu Sans", "weight": "bold"}
 
 EllipseParams = Callable[[np.ndarray], np.ndarray]  # τ (rotations) [T] -> [T, K, 6]: see `EllipsePhantom`
 EllipseGradients = Callable[[np.ndarray], np.ndarray]  # τ (rotations) [T] -> [T, K, 2]: see `EllipsePhantom`
@@ -184,7 +180,13 @@ def _moment_antiderivative(s: np.ndarray, h: np.ndarray) -> np.ndarray:
 @lru_cache(maxsize=64)
 def glyph_polygons(char: str) -> tuple[np.ndarray, ...]:
     """Outline polygons of ``char`` at font size 1 (cap height ~0.73), each [P, 2]."""
-    return tuple(np.asarray(p) for p in TextPath((0, 0), char, size=1, prop=_GLYPH_FONT).to_polygons())
+    from matplotlib.font_manager import (
+        FontProperties,  # lazy, as in _glyph_sdfs: only letters need matplotlib
+    )
+    from matplotlib.textpath import TextPath
+
+    outline = TextPath((0, 0), char, size=1, prop=FontProperties(**GLYPH_FONT))
+    return tuple(np.asarray(p) for p in outline.to_polygons())
 
 
 def _glyph_layout(char: str, glyph_size: float) -> tuple[float, np.ndarray]:
@@ -204,6 +206,11 @@ def glyph_reach(char: str, glyph_size: float) -> float:
 def _glyph_sdfs(chars: str, glyph_size: float, size: int) -> np.ndarray:
     """Signed distance (fine pixels, positive inside) of each glyph on a size² grid of unit
     extent, rows y-down: [len(chars), size, size] float32. Holes by the even-odd rule."""
+    from matplotlib.path import (
+        Path,  # lazy: the config (this module's phantoms) is read before any scene is drawn
+    )
+    from scipy.ndimage import distance_transform_edt
+
     x, y = ImageGrid(size, 1.0).xy()
     pts = np.column_stack([x.ravel(), y.ravel()])
     out = np.empty((len(chars), size, size), dtype=np.float32)
