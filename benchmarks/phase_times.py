@@ -38,6 +38,7 @@ PHASE_OF = (
     ("nct.run.pipeline", "motion_determinacy", "checks"), ("nct.run.pipeline", "check_geometry", "checks"),
     ("nct.run.pipeline", "fbp_frames", "fbp"),
     ("nct.select.scene", "prepare", "initialisation"),  # each scene model's set-up, then the race
+    ("nct.select.scene", "sought", "initialisation"),
     ("nct.select.scene", "search", "initialisation"),
     ("nct.method.reconstruct", "race", "tournament"),
     ("nct.method.reconstruct", "reconstruct", "refinement"),  # its own time: the winner refined, its frames drawn

@@ -276,3 +276,15 @@ def test_a_failed_seed_fails_the_frame_criterion(tmp_path):
     job = Job({"scene": "heart_cine", "label": "nct"}, "nct", 0, (), tmp_path / "r")
     s = accept.scores([Record(job=job, status="diverged", error="loss nan")])
     assert s.failed == 1 and s.dice == 0.0 and s.worst_frame_mse == math.inf
+
+
+def test_a_failed_job_runs_again_in_an_emptied_folder(tmp_path):
+    """nct refuses to replace the run a folder holds: a job run again (failed, timed out, killed) gets its folder
+    emptied first, and runs (here an FBP-only tiny run) to its own result."""
+    folder = write_run(tmp_path / "run", "failed", math.nan)
+    (folder / "stale.txt").write_text("from the failed run")
+    job = Job({"scene": "s"}, "fbp", 0, ("debug=tiny", "method=fbp", "logger=none", "export.gif=false",
+                                          "export.png=false", "export.tiff=false"), folder)
+    save_record(Record(job, "failed", error="killed"))
+    [record] = run_jobs([job], resume=True, progress=lambda line: None)
+    assert record.status == "ok" and not (folder / "stale.txt").exists()

@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import threading
@@ -176,7 +177,8 @@ def run_jobs(jobs: Sequence[Job], n_jobs: int = 1, resume: bool = False, timeout
 
     One thread is the default: on a shared CPU, a second OpenMP thread that has to wait for a busy
     core slowed a NeuralCT run up to 20-fold (benchmarks/README.md). ``resume``: a job whose folder
-    holds a record is not run again unless it failed or timed out (diverged and NaN runs are kept).
+    holds a record is not run again unless it failed or timed out (diverged and NaN runs are kept); one run
+    again starts in an emptied folder (nct never replaces the run a folder holds).
     """
     if n_jobs < 1:
         raise ValueError(f"--jobs must be >= 1, got {n_jobs}")
@@ -193,6 +195,7 @@ def run_jobs(jobs: Sequence[Job], n_jobs: int = 1, resume: bool = False, timeout
         record = load_record(job) if resume else None
         kept = record is not None and record.status not in RETRIED
         if not kept:
+            shutil.rmtree(job.run_dir, ignore_errors=True)  # a failed, timed-out or killed run of this job
             record = run_one(job, threads, timeout_s)
         with lock:
             done[0] += 1

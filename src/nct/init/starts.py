@@ -43,12 +43,20 @@ class Found:
                      seg.intensities, seg, sightings(self.prob, seg.masks), self.background)
 
 
-def search(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
-           background: BackgroundConf | None = None) -> Found:
-    """The judged segmentations a run starts from, best first: the judge's ``init.starts`` best with K >= 2,
-    the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain the fitted views,
-    which also gives a(k)). With ``background=image`` the objects are sought in what moves, over a static
-    background's start (background.py)."""
+@dataclass(frozen=True)
+class Sought:
+    """Where a scene model's objects are sought: the ``prob`` (over a background, what moves), the static image
+    [H, W] they start over (None: none) and the sinogram ``judge`` of its segmentations (judge.py; None with
+    ``init.levels=fbp``), which models of other K share."""
+
+    prob: Problem
+    background: np.ndarray | None
+    judge: Judge | None
+
+
+def sought(prob: Problem, n_objects: int, init: InitConf, background: BackgroundConf | None = None) -> Sought:
+    """Where ``n_objects`` objects are sought in ``prob``: with ``background=image`` in what moves, over a static
+    background's start (background.py; one object there on its focused path), else in ``prob`` itself."""
     static = None
     if background is not None and background.name == "image":
         static = static_start(prob.fbp, background.moving_share)
@@ -59,14 +67,21 @@ def search(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generat
         if n_objects == 1 and static.moving.any():
             moved = lone_mover(prob, moved, static.moving)
         prob = moved
-    ranked = segmentations(prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, judge_of(prob, init))
-    return Found(prob, ranked[:init.starts] if n_objects > 1 else ranked[:1], None if static is None else static.image)
+    return Sought(prob, None if static is None else static.image, judge_of(prob, init))
+
+
+def search(where: Sought, n_objects: int, init: InitConf, rng: np.random.Generator) -> Found:
+    """The judged segmentations a run starts from, best first: the judge's ``init.starts`` best with K >= 2,
+    the best one with K = 1 (``init.levels=sinogram``: judged by how well the masks explain the fitted views,
+    which also gives a(k))."""
+    ranked = segmentations(where.prob.fbp, n_objects, rng, init.kappa, init.gmm_share, init.route, where.judge)
+    return Found(where.prob, ranked[:init.starts] if n_objects > 1 else ranked[:1], where.background)
 
 
 def find_starts(prob: Problem, n_objects: int, init: InitConf, rng: np.random.Generator,
                 background: BackgroundConf | None = None) -> list[Start]:
-    """Every start ``search`` finds (each as SDF frames), best judged first."""
-    found = search(prob, n_objects, init, rng, background)
+    """Every start ``search`` finds where ``sought`` seeks them (each as SDF frames), best judged first."""
+    found = search(sought(prob, n_objects, init, background), n_objects, init, rng)
     return [found.start(i) for i in range(len(found.ranked))]
 
 
