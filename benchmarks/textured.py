@@ -4,9 +4,11 @@ Draws ``--scenes`` scenes of each family (benchmarks/scenes.py `draw_textured_sc
 nct: 1-2 moving objects brighter than what surrounds them inside a static body that is ``gradient``
 (intensity varying linearly across it), ``structures`` (small static ellipses brighter and darker
 than it) or ``holes`` (static low-intensity inclusions, lungs)), simulates each analytically
-(scene_files.py; ``truth_level`` half the body's intensity) and reconstructs it twice with
-``nct data=file``: ``background=image`` with K = the moving objects, and ``background=none`` with
-K = every object of the scene (body, inclusions and moving objects).
+(scene_files.py; ``truth_level`` half the body's intensity) and reconstructs it with ``nct data=file``
+once per ``--backgrounds``: ``image`` (``background=image`` with K = the moving objects), ``none``
+(``background=none`` with K = every object of the scene: body, inclusions and moving objects) and
+``auto`` (nothing about the scene passed: the run chooses K and the background; the K column then
+names the model it chose).
 
 Scores per scene and background, each the median over frames: whole-image MSE of FBP and NCT
 (metrics.json ``fbp``/``nct`` -> ``median_mse``; FBP's is the same in both runs), NCT's MSE over
@@ -16,12 +18,13 @@ whole frame thresholded. A failed run scores NaN MSE and Dice 0. Writes textured
 run), families.csv (medians per family and background) and textured.md.
 
 Run: python benchmarks/textured.py [--quick] [--scenes N] [--seed S] [--size N] [--frames F]
-     [--families gradient structures holes] [--backgrounds image none] [--only NAME,...]
+     [--families gradient structures holes] [--backgrounds image none auto] [--only NAME,...]
      [--override KEY=VALUE ...] [--out DIR] [--jobs 2] [--threads T] [--resume] [--timeout S]
 """
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
@@ -47,7 +50,7 @@ from nct.analysis.benchmarking import (  # noqa: E402
 from nct.run.metrics import dice  # noqa: E402
 from nct.run.tables import markdown_table, write_csv  # noqa: E402
 
-BACKGROUNDS = ("image", "none")
+BACKGROUNDS = ("image", "none", "auto")  # told K over an image; told K on none; nothing passed (the run chooses)
 QUICK_SCENES, QUICK_SIZE, QUICK_FRAMES = 1, 64, 8
 FULL_SCENES, FULL_SIZE, FULL_FRAMES = 3, 128, 12
 
@@ -57,16 +60,24 @@ def scene_name(scene: Scene) -> str:
     return f"{scene.layout}{scene.index:03d}"
 
 
-def n_objects(scene: Scene, background: str) -> int:
-    """K: the moving objects over a background image; every object without one."""
-    return len(moving_levels(scene)) if background == "image" else len(scene.objects)
+def n_objects(scene: Scene, background: str) -> int | None:
+    """K: the moving objects over a background image; every object without one; None where the run chooses
+    (``auto``: nothing about the scene passed)."""
+    return {"image": len(moving_levels(scene)), "none": len(scene.objects)}.get(background)
+
+
+def overrides(scene: Scene, path: Path, background: str, extra: Sequence[str]) -> tuple[str, ...]:
+    """A run's overrides: told K and background, or nothing about the scene (``auto``)."""
+    if background == "auto":
+        return scene_overrides(scene, path, extra, told=False)
+    return scene_overrides(scene, path, [f"background={background}", *extra], n_objects(scene, background))
 
 
 def plan(out: Path, scenes: Sequence[Scene], files: Sequence[Path], backgrounds: Sequence[str],
          extra: Sequence[str]) -> list[Job]:
     """One NeuralCT job per scene and background, in ``out/runs/<scene>/<background>``."""
     return [Job({"family": s.layout, "scene": scene_name(s), "background": b}, "nct", NCT_SEED,
-                scene_overrides(s, f, [f"background={b}", *extra], n_objects(s, b)), out / "runs" / scene_name(s) / b)
+                overrides(s, f, b, extra), out / "runs" / scene_name(s) / b)
             for s, f in zip(scenes, files) for b in backgrounds]
 
 
@@ -89,7 +100,8 @@ def row(scene: Scene, nct: Record, path: Path) -> dict:
         own["nct"] = [0.0] * len(levels)
     nct_mse = math.nan if nct.failed else nct.mse
     fbp_mse = math.nan if fbp.failed else fbp.mse
-    return {**nct.job.labels, "K": n_objects(scene, nct.job.labels["background"]), "moving": len(levels),
+    return {**nct.job.labels, "K": n_objects(scene, nct.job.labels["background"]), "chosen": chosen(nct),
+            "moving": len(levels),
             "objects": len(scene.objects), "motions": " ".join(o.motion.kind for o in scene.objects
                                                                if o.motion.kind != "static"),
             "views": scene.acquisition.n_views, "noise_i0": scene.noise_i0 or "",
@@ -99,6 +111,16 @@ def row(scene: Scene, nct: Record, path: Path) -> dict:
             "nct_own_dices": " ".join(f"{d:.3f}" for d in own["nct"]),
             "nct_status": nct.status, "error": first_line(nct.error), "wall_time_s": nct.wall_time_s,
             "run_dir": str(nct.job.run_dir)}
+
+
+def chosen(nct: Record) -> str:
+    """The scene model the run fitted, as ``<K> <background>`` (its table's winner; '' for a failed run)."""
+    path = nct.job.run_dir / "metrics.json"
+    if nct.failed or not path.is_file():
+        return ""
+    selection = json.loads(path.read_text())["selection"]
+    win = next(r for r in selection["table"] if r["candidate"] == selection["winner"])
+    return f"{win['n_objects']} {win['background']}"
 
 
 def family_rows(rows: Sequence[dict]) -> list[dict]:
@@ -124,9 +146,10 @@ def report(rows: Sequence[dict], families: Sequence[dict], command: str, size: i
         [[f["family"], f["background"], f["runs"], f["nct_failed"], f["fbp_mse"], f["nct_mse"], f["mse_ratio"],
           f["fbp_own_dice"], f["nct_own_dice"], f["wall_time_s"]] for f in families])
     per_run = markdown_table(
-        ["scene", "background", "K", "motions", "views", "FBP MSE", "NCT MSE", "NCT/FBP MSE", "FBP own Dice",
+        ["scene", "background", "K", "chosen", "motions", "views", "FBP MSE", "NCT MSE", "NCT/FBP MSE", "FBP own Dice",
          "NCT own Dice", "status", "wall s"],
-        [[r["scene"], r["background"], r["K"], r["motions"], r["views"], r["fbp_mse"], r["nct_mse"], r["mse_ratio"],
+        [[r["scene"], r["background"], r["K"], r["chosen"], r["motions"], r["views"], r["fbp_mse"], r["nct_mse"],
+          r["mse_ratio"],
           r["fbp_own_dices"], r["nct_own_dices"],
           r["nct_status"] if r["nct_status"] == "ok" else f"{r['nct_status']}: {r['error']}", r["wall_time_s"]]
          for r in rows])
@@ -152,7 +175,9 @@ def parse(argv: Sequence[str] | None = None):
     parser.add_argument("--frames", type=positive_int, help=f"truth frames per rotation (default {FULL_FRAMES}; "
                         f"--quick {QUICK_FRAMES})")
     parser.add_argument("--families", nargs="+", default=list(FAMILIES), choices=FAMILIES)
-    parser.add_argument("--backgrounds", nargs="+", default=list(BACKGROUNDS), choices=BACKGROUNDS)
+    parser.add_argument("--backgrounds", nargs="+", default=["image", "none"], choices=BACKGROUNDS,
+                        help="image: told K over a background; none: told K, every object; auto: nothing about "
+                        "the scene passed, as a user runs a file (default: image none)")
     parser.add_argument("--only", type=lambda text: text.split(","), metavar="NAME,...",
                         help="run and report only these of the drawn scenes (e.g. holes001,gradient000)")
     parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",

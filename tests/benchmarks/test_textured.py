@@ -156,6 +156,8 @@ def test_plan_takes_the_moving_objects_over_a_background_and_every_object_withou
     assert "background=image" in jobs[0].overrides and f"data.n_objects={n_moving}" in jobs[0].overrides
     assert "background=none" in jobs[1].overrides and f"data.n_objects={len(scene.objects)}" in jobs[1].overrides
     assert jobs[0].overrides[-1] == "optim.fit_steps=5"
+    [auto] = T.plan(tmp_path, [scene], [tmp_path / "s.npz"], ["auto"], [])
+    assert not any(o.startswith(("background=", "data.n_objects=")) for o in auto.overrides)  # nothing passed
 
 
 def test_a_tiny_call_writes_its_tables(tmp_path, capsys):
