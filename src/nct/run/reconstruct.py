@@ -6,6 +6,7 @@ sinogram gives the same frames from Python and from the command line.
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Callable
 from dataclasses import asdict
@@ -57,9 +58,10 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
                     + (geometry_warnings(geometry, sino, conf.suspect) if measured else [])
                     + suspect_fit(conf, scan, extra))
     lap("checks")
-    rec.record = {"times": scan.frame_times.tolist(), **extra,
-                  "motion_determinacy": asdict(motion) if motion is not None else None,
-                  "geometry_check": asdict(geometry) if geometry is not None else None}
+    record = {"times": scan.frame_times.tolist(), **extra,
+              "motion_determinacy": asdict(motion) if motion is not None else None,
+              "geometry_check": asdict(geometry) if geometry is not None else None}
+    rec.record = json.loads(json.dumps(record))  # plain JSON values, as metrics.json and a saved one hold them
     return rec
 
 

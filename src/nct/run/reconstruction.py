@@ -33,8 +33,8 @@ class Reconstruction:
     (the whole image), ``masks`` [F, K, H, W] bool (each object's inside) and ``background`` [H, W]
     float32 (``background=image``; else None), all None for FBP only (``method=fbp``); ``warnings``:
     the truth-free signs of a poor fit or of data that do not fix the motion (status.json's); ``record``:
-    what metrics.json records of it (frame times, held-out losses, model, selection, stages,
-    intensities, init, motion_determinacy, geometry_check); ``fitted``: the winner's field and what
+    what metrics.json records of it, in plain JSON values (frame times, held-out losses, model, selection,
+    stages, intensities, init, motion_determinacy, geometry_check); ``fitted``: the winner's field and what
     renders it (None for FBP only); ``trace``: the snapshots' frames (``trainer.snapshot_every_n_steps``;
     not saved). Frame times and the grid are the scan's (``times`` [F] s, ``extent``).
     """
