@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Mapping, Sequence
+from numbers import Integral
 from pathlib import Path
 
 from hydra import compose as hydra_compose
@@ -31,6 +32,7 @@ from nct.acquisition.scan import Scan
 from nct.acquisition.sinogram import Truth
 from nct.errors import InputError
 from nct.run.config import CONFIG_MODULE, NCTConf, describe, register_configs, unknown_key, validate
+from nct.run.reconstruct import reconstruct_scan
 from nct.run.reconstruction import Reconstruction, load_reconstruction
 
 __all__ = ["NCTConf", "Reconstruction", "Scan", "Truth", "compose", "load", "reconstruct"]
@@ -87,16 +89,18 @@ def reconstruct(scan: Scan, *, n_objects: int | str | None = None, background: s
     if not isinstance(scan, Scan):
         raise InputError(f"scan: expected an nct.Scan (nct.Scan(...) or nct.Scan.from_file(...)), "
                          f"got {type(scan).__name__}")
-    if n_objects is not None and n_objects != "auto" and (isinstance(n_objects, bool) or not isinstance(n_objects, int)
-                                                           or n_objects < 1):
-        raise InputError(f"n_objects must be a whole number >= 1, or 'auto' / None (chosen from the data), "
-                         f"got {n_objects!r}")
     groups = {name: value for name, value in (("background", background), ("motion", motion)) if value is not None}
     conf = configure(config, {**settings, **groups},
-                     {"seed": seed, "data": None if n_objects is None else {"n_objects": n_objects}})
-    from nct.run.reconstruct import reconstruct_scan  # lazy: torch and the method
-
+                     {"seed": seed, "data": None if n_objects is None else {"n_objects": _objects(n_objects)}})
     return reconstruct_scan(scan, conf)
+
+
+def _objects(n_objects: int | str) -> int | str:
+    """K as the config takes it: a whole number >= 1 or "auto"; `InputError` naming ``n_objects`` otherwise."""
+    if n_objects == "auto" or (isinstance(n_objects, Integral) and not isinstance(n_objects, bool) and n_objects >= 1):
+        return n_objects if n_objects == "auto" else int(n_objects)
+    raise InputError(f"n_objects must be a whole number >= 1, or 'auto' / None (chosen from the data), "
+                     f"got {n_objects!r}")
 
 
 def configure(config: NCTConf | None, settings: Mapping[str, object], fixed: Mapping[str, object]) -> NCTConf:

@@ -166,8 +166,7 @@ def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
 
 
 def parse(data: dict[str, np.ndarray], path: str, times_unit: str | None = None) -> Sinogram:
-    """The validated sinogram of the arrays ``data`` (the file's keys) read from ``path``, which errors name
-    (times in ``times_unit``); also `nct.acquisition.scan.Scan`'s arrays."""
+    """The validated sinogram of the arrays ``data`` (a file's keys, or a `Scan`'s) from ``path`` (times: ``times_unit``)."""
     for key in REQUIRED:
         if key not in data:
             raise _fail(path, key, "present (required keys: sinogram or counts, " + ", ".join(REQUIRED) + ")",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
@@ -104,11 +105,11 @@ class Reconstruction:
         if self.fitted is None:
             raise InputError("render: an FBP-only reconstruction (method=fbp) fitted no field to render")
         size = self.scan.grid.size if size is None else size
-        if isinstance(size, bool) or not isinstance(size, int) or size < 2:
+        if isinstance(size, bool) or not isinstance(size, Integral) or size < 2:
             raise InputError(f"render: size must be a whole number >= 2, got {size!r}")
         times = np.atleast_1d(np.asarray(times, dtype=np.float64))
         check_times(self.fitted.span, times, "render: times")
-        return render(self.fitted, times, size)
+        return render(self.fitted, times, int(size))
 
     def save(self, folder: str | Path) -> Path:
         """Write this reconstruction into ``folder`` (made if missing; one that holds a reconstruction
