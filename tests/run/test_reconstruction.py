@@ -52,6 +52,7 @@ def test_save_and_load_give_equal_arrays_records_and_renders(rec, tmp_path):
 
 
 def test_the_field_renders_the_frames_at_their_own_times_and_size(rec):
+    """At 32 px, below optim.coarse_size, the fit drew its frames on the grid itself, as render draws them."""
     frames, sdf = rec.render(rec.times)
     np.testing.assert_allclose(frames, rec.frames, rtol=0, atol=1e-5 * float(np.abs(rec.frames).max()))
     np.testing.assert_array_equal((sdf > 0)[np.abs(sdf) > 1e-4], rec.masks[np.abs(sdf) > 1e-4])
