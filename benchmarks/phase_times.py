@@ -35,24 +35,27 @@ from pathlib import Path  # noqa: E402
 #: (module, function, phase): the functions whose calls make up each phase, in the order a run meets them.
 PHASE_OF = (
     ("nct.run.pipeline", "acquire", "data"), ("nct.run.pipeline", "save_sinogram", "data"),
-    ("nct.run.pipeline", "motion_determinacy", "checks"), ("nct.run.pipeline", "check_geometry", "checks"),
-    ("nct.run.pipeline", "fbp_frames", "fbp"),
+    ("nct.run.reconstruct", "motion_determinacy", "checks"), ("nct.run.reconstruct", "check_geometry", "checks"),
+    ("nct.run.reconstruct", "fbp_frames", "fbp"),
     ("nct.select.scene", "prepare", "initialisation"),  # each scene model's set-up, then the race
     ("nct.select.scene", "sought", "initialisation"),
     ("nct.select.scene", "search", "initialisation"),
     ("nct.method.reconstruct", "race", "tournament"),
     ("nct.method.reconstruct", "reconstruct", "refinement"),  # its own time: the winner refined, its frames drawn
-    ("nct.run.pipeline", "suspect_fit", "checks"),
-    ("nct.run.pipeline", "frame_metrics", "metrics"), ("nct.run.pipeline", "summarise", "metrics"),
-    ("nct.run.pipeline", "score_trace", "metrics"),
+    ("nct.run.reconstruct", "suspect_fit", "checks"),
+    ("nct.run.reconstruction", "frame_metrics", "metrics"), ("nct.run.pipeline", "summarise", "metrics"),
+    ("nct.run.pipeline", "score_trace", "metrics"), ("nct.run.pipeline", "frame_metrics", "metrics"),
     ("nct.run.pipeline", "write_outputs", "exports"),
     ("nct.run.pipeline", "write_summary", "tensorboard"),  # after the run's wall time: TensorBoard's summary
 )
-#: The same steps under the names an earlier version gave them (39a9e4b), timed where that version runs.
+#: The same steps under the names earlier versions gave them (39a9e4b; the pipeline before the Python API),
+#: timed where those versions run.
 EARLIER = (
     ("nct.method.reconstruct", "prepare", "initialisation"),
     ("nct.method.reconstruct", "find_starts", "initialisation"),
     ("nct.method.reconstruct", "_tournament", "tournament"),
+    ("nct.run.pipeline", "motion_determinacy", "checks"), ("nct.run.pipeline", "check_geometry", "checks"),
+    ("nct.run.pipeline", "fbp_frames", "fbp"), ("nct.run.pipeline", "suspect_fit", "checks"),
 )
 
 

@@ -30,7 +30,8 @@ from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.init import segmentation as seg
 from nct.run.config import NCTConf, validate
-from nct.run.pipeline import acquire, reconstruct_all
+from nct.run.pipeline import acquire
+from nct.run.reconstruct import reconstruct_scan
 
 
 class _Caught(Exception):
@@ -60,12 +61,12 @@ def run_until(conf: NCTConf, hook: str) -> tuple:
     def catch(*args, **kwargs):
         raise _Caught(args, kwargs)
 
-    acq = acquire(conf, np.random.default_rng(conf.seed))
+    scan = acquire(conf, np.random.default_rng(conf.seed))
     real = getattr(nct.init.starts, hook)
     setattr(nct.init.starts, hook, catch)
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            reconstruct_all(conf, acq, Path(tmp))
+            reconstruct_scan(scan, conf, Path(tmp))
     except _Caught as caught:
         return caught.args_
     finally:

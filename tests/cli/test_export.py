@@ -12,7 +12,7 @@ import torch
 from omegaconf import OmegaConf
 
 from nct.cli.export import main
-from nct.method.reload import load_run, render
+from nct.method.reload import load_run
 from nct.run.job import run_job
 from tests.conftest import TINY, compose_config
 
@@ -101,7 +101,7 @@ def test_shapes_files_and_sdf_agree_with_frames(run, capsys):
     assert frames.shape == (48, 256, 256) and frames.dtype == np.float32
     assert sdf.shape == (48, 1, 256, 256) and sdf.dtype == np.float32 and times.shape == (48,)
     a = json.loads((run / "metrics.json").read_text())["intensities"][0]
-    fitted = load_run(run)
+    fitted = load_run(run).fitted
     if fitted.field.background is not None:  # the static background under the object, at the export's size
         b = torch.nn.functional.interpolate(fitted.field.background.detach()[None, None], size=(256, 256),
                                             mode="bilinear", align_corners=False)[0, 0]
@@ -117,17 +117,18 @@ def test_never_overwrites(run, capsys):
     assert "never overwritten" in err and (run / "reconstruction.npz").read_bytes() == before
 
 
-def test_rebuilt_field_is_the_checkpoints(run):
-    """The run's seed draws the frequencies the checkpoint holds; loading restores every tensor."""
-    fitted = load_run(run)
-    saved = torch.load(fitted.checkpoint, weights_only=True)["state_dict"]
-    for key, value in fitted.field.state_dict().items():
-        torch.testing.assert_close(value, saved["field." + key], rtol=0, atol=0)
+def test_the_field_file_holds_the_winners_last_stage(run):
+    """The field file restores every tensor of the last stage fitted to the winner (its Lightning checkpoint,
+    the field the run's frames came from), the frequencies ``omega`` included."""
+    fitted = load_run(run).fitted
     cfg = OmegaConf.load(run / ".hydra" / "config.yaml")
     winner = json.loads((run / "metrics.json").read_text())["selection"]["winner"]
+    stage = "refine_fit" if cfg.optim.refine else f"{winner}_fit"
+    saved = torch.load(run / "checkpoints" / stage / "last.ckpt", weights_only=True)["state_dict"]
+    for key, value in fitted.field.state_dict().items():
+        torch.testing.assert_close(value, saved["field." + key], rtol=0, atol=0)
     if len(cfg.motion.rungs) > 1:
         assert winner == "static" and fitted.field.n_terms == 0 and (run / "checkpoints" / "free_fit").is_dir()
-    assert fitted.checkpoint.parent.name == ("refine_fit" if cfg.optim.refine else f"{winner}_fit")
 
 
 def test_fbp_only_run_is_refused(fbp_run, capsys):
@@ -152,22 +153,11 @@ def test_run_without_checkpoints_is_refused(run, tmp_path, capsys):
 
 def test_a_checkpoint_of_an_older_nct_is_refused(run, tmp_path, capsys):
     copy = shutil.copytree(run, tmp_path / "run")
-    path = load_run(copy).checkpoint
+    path = copy / "checkpoints" / "field.pt"
     saved = torch.load(path, weights_only=True)
-    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k != "field.omega"}
+    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k != "omega"}
     torch.save(saved, path)
     assert "written by an older nct (its checkpoint has no omega)" in refused(capsys, copy, "--frames", 4)
-
-
-def test_a_checkpoint_from_before_the_turn_renders_unturned(run, tmp_path):
-    """A field saved before a carried field could turn (no ``turn`` buffers) loads and renders as it did."""
-    copy = shutil.copytree(run, tmp_path / "run")
-    path = load_run(copy).checkpoint
-    saved = torch.load(path, weights_only=True)
-    saved["state_dict"] = {k: v for k, v in saved["state_dict"].items() if k not in ("field.turn", "field.turned")}
-    torch.save(saved, path)
-    times = np.array([0.05, 0.2])
-    np.testing.assert_array_equal(render(load_run(copy), times, 24)[0], render(load_run(run), times, 24)[0])
 
 
 def test_unfinished_and_non_run_folders_are_refused(run, tmp_path, capsys):

@@ -17,8 +17,8 @@ from nct.run.pipeline import acquire
 
 
 def verdict(tiny_cfg, *overrides):
-    acq = acquire(validate(tiny_cfg(*overrides)), np.random.default_rng(0))
-    return motion_determinacy(acq.sino, acq.grid)
+    scan = acquire(validate(tiny_cfg(*overrides)), np.random.default_rng(0))
+    return motion_determinacy(scan.sinogram, scan.grid)
 
 
 @pytest.mark.parametrize("overrides, determined", [
@@ -35,10 +35,10 @@ def test_verdict_follows_the_speed(tiny_cfg, overrides, determined):
 
 
 def test_views_that_give_no_trajectory_give_no_verdict(tiny_cfg):
-    acq = acquire(validate(tiny_cfg()), np.random.default_rng(0))
-    empty = type(acq.sino)(values=np.zeros_like(acq.sino.values), angles=acq.sino.angles, times=acq.sino.times,
-                           geometry=acq.sino.geometry)
-    assert motion_determinacy(empty, acq.grid) is None and determinacy_warnings(None) == []
+    scan = acquire(validate(tiny_cfg()), np.random.default_rng(0))
+    sino = scan.sinogram
+    empty = type(sino)(values=np.zeros_like(sino.values), angles=sino.angles, times=sino.times, geometry=sino.geometry)
+    assert motion_determinacy(empty, scan.grid) is None and determinacy_warnings(None) == []
 
 
 def test_run_records_the_verdict(tiny_cfg, run_dir):

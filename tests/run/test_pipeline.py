@@ -19,11 +19,11 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nct.analysis.benchmarking import QUIET
 from nct.errors import InputError
-from nct.run import pipeline
 from nct.run.config import validate
 from nct.run.job import run_job
 from nct.run.phases import Instant
 from nct.run.pipeline import acquire
+from nct.run.reconstruct import reconstruct_scan
 from tests.conftest import TINY, compose_config
 
 
@@ -100,7 +100,7 @@ def test_a_file_in_milliseconds_is_warned_of_and_runs_quiet_when_stated(tiny_cfg
 def test_only_a_file_is_checked_for_a_wrong_geometry(tiny_cfg, tmp_path, monkeypatch):
     """A simulation's geometry is the one that made its data: a geometry warning there could only be
     false, so only a file's run carries them."""
-    monkeypatch.setattr(pipeline, "geometry_warnings", lambda *args: ["suspect geometry: as if shifted"])
+    monkeypatch.setattr("nct.run.reconstruct.geometry_warnings", lambda *args: ["suspect geometry: as if shifted"])
     radon_file(tmp_path / "scan.npz")
     run_job(tiny_cfg("method=fbp", *QUIET), tmp_path / "simulated")
     run_job(tiny_cfg("method=fbp", "data=file", f"data.path={tmp_path / 'scan.npz'}", *QUIET), tmp_path / "file")
@@ -154,7 +154,8 @@ def test_each_phase_says_what_it_starts(tiny_cfg, run_dir, caplog):
     """Progress from the first seconds on: a line before the imports (torch: seconds) and at each phase."""
     with caplog.at_level(logging.INFO):
         run_job(tiny_cfg(*QUIET), run_dir)
-    lines = [r.getMessage() for r in caplog.records if r.name in ("nct.run.job", "nct.run.pipeline")]
+    lines = [r.getMessage() for r in caplog.records
+             if r.name in ("nct.run.job", "nct.run.pipeline", "nct.run.reconstruct")]
     assert lines[:5] == [f"outputs in {run_dir}; loading torch ...",
                          "simulating the circle phantom: 60 views of 32 bins ...",
                          "FBP: 6 frames of 32 x 32 pixels ...",
@@ -346,8 +347,18 @@ def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg
     assert trace[-1]["median_dice"] == pytest.approx(metrics["nct"]["median_dice"], abs=1e-12)
 
 
-def test_a_simulation_fits_the_objects_data_n_objects_names(tiny_cfg):
+def test_a_simulation_fits_the_objects_data_n_objects_names(tiny_cfg, monkeypatch):
     """K: data.n_objects when set (the moving parts of a scene inside static anatomy; null: one per
     object of the phantom); the truth keeps every object's own level."""
-    acq = acquire(validate(tiny_cfg("experiment=static", "data.n_objects=1")), np.random.default_rng(0))
-    assert acq.n_objects == 1 and acq.sino.truth.levels == pytest.approx((0.5, 0.25))
+    conf = validate(tiny_cfg("experiment=static", "data.n_objects=1"))
+    scan = acquire(conf, np.random.default_rng(0))
+    asked = {}
+
+    def method(*args, n_objects=None, **kwargs):
+        asked["n_objects"] = n_objects
+        raise RuntimeError("stopped before fitting")
+
+    monkeypatch.setattr("nct.method.reconstruct.reconstruct", method)
+    with pytest.raises(RuntimeError, match="stopped before fitting"):
+        reconstruct_scan(scan, conf)
+    assert asked["n_objects"] == 1 and scan.truth.levels == pytest.approx((0.5, 0.25))

@@ -26,7 +26,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import tifffile
 
 from nct.acquisition.geometry import DETECTOR_SHAPES, Geometry, make_geometry
 from nct.acquisition.sinogram import Sinogram, Truth
@@ -117,10 +116,10 @@ def load_sinogram(path: str | Path, sidecar: str | Path | None = None, times_uni
     raise `InputError` naming the first bad key."""
     path = _existing_file(Path(path), "data.path")
     if path.suffix.lower() in TIFF_SUFFIXES:
-        return _parse(*_read_tiff(path, path.with_suffix(".npz") if sidecar is None else Path(sidecar)), times_unit)
+        return parse(*_read_tiff(path, path.with_suffix(".npz") if sidecar is None else Path(sidecar)), times_unit)
     if sidecar is not None:
         raise InputError(f"data.sidecar: only a TIFF stack (data.path=*.tif) takes a sidecar, not {path}")
-    return _parse(_read_npz(path, "data.path"), str(path), times_unit)
+    return parse(_read_npz(path, "data.path"), str(path), times_unit)
 
 
 def _existing_file(path: Path, config_key: str) -> Path:
@@ -148,6 +147,8 @@ def _read_npz(path: Path, config_key: str) -> dict[str, np.ndarray]:
 
 def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
     """The TIFF stack as ``counts`` (when the sidecar has ``flat``) or ``sinogram``, with the sidecar's keys."""
+    import tifffile  # lazy: the config schemas import this module's package, and most files are .npz
+
     try:
         stack = np.squeeze(tifffile.imread(path))
     except (OSError, ValueError) as err:
@@ -164,8 +165,8 @@ def _read_tiff(path: Path, sidecar: Path) -> tuple[dict[str, np.ndarray], str]:
     return arrays, source
 
 
-def _parse(data: dict[str, np.ndarray], path: str, times_unit: str | None = None) -> Sinogram:
-    """The validated sinogram of the arrays ``data`` read from ``path`` (times in ``times_unit``)."""
+def parse(data: dict[str, np.ndarray], path: str, times_unit: str | None = None) -> Sinogram:
+    """The validated sinogram of the arrays ``data`` (a file's keys, or a `Scan`'s) from ``path`` (times: ``times_unit``)."""
     for key in REQUIRED:
         if key not in data:
             raise _fail(path, key, "present (required keys: sinogram or counts, " + ", ".join(REQUIRED) + ")",

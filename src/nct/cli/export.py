@@ -56,7 +56,7 @@ def targets(out: Path, gif: bool, tiff: bool) -> list[Path]:
 
 def export(args: argparse.Namespace) -> list[Path]:
     """Check the arguments against the run, render and write; return the files written."""
-    from nct.method.reload import even_times, load_run, render
+    from nct.method.reload import check_times, even_times, load_run, render
     from nct.run import export as files
 
     if args.frames is not None and args.frames < 1:
@@ -64,15 +64,13 @@ def export(args: argparse.Namespace) -> list[Path]:
     if args.size is not None and args.size < 2:
         raise InputError(f"--size must be >= 2, got {args.size}")
     run = load_run(args.run_dir)
-    start, end = run.span
+    fitted = run.fitted
     if args.times is not None:
         times = np.asarray(args.times, dtype=np.float64)
-        outside = [t for t in args.times if not start <= t <= end]
-        if outside:
-            raise InputError(f"--times {outside[0]:g} lies outside the acquisition, {start:g} s to {end:g} s")
+        check_times(fitted.span, times, "--times")
     else:
-        times = even_times(run.span, args.frames)
-    size = args.size or run.grid.size
+        times = even_times(fitted.span, args.frames)
+    size = args.size or fitted.grid.size
     out = args.out or args.run_dir / f"export_{len(times)}x{size}.npz"
     if out.suffix != ".npz":
         raise InputError(f"--out must name an .npz file, got {out}")
@@ -80,13 +78,13 @@ def export(args: argparse.Namespace) -> list[Path]:
     existing = [p for p in written if p.exists()]
     if existing:
         raise InputError(f"{existing[0]} exists and is never overwritten: choose another --out")
-    frames, sdf = render(run, times, size)
+    frames, sdf = render(fitted, times, size)
     out.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(out, frames=frames, sdf=sdf, times=times, extent=np.float64(run.grid.extent))
+    np.savez_compressed(out, frames=frames, sdf=sdf, times=times, extent=np.float64(fitted.grid.extent))
     if args.gif:
-        files.save_movie(out.with_suffix(".gif"), {"nct": frames}, times, run.fps, run.grid.extent)
+        files.save_movie(out.with_suffix(".gif"), {"nct": frames}, times, run.fps, fitted.grid.extent)
     if args.tiff:
-        files.save_tiffs(out.parent, {out.stem: frames}, times, run.grid.extent)
+        files.save_tiffs(out.parent, {out.stem: frames}, times, fitted.grid.extent)
     return written
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import torch
 
@@ -26,3 +26,25 @@ def build_field(conf: ModelConf, n_objects: int, generator: torch.Generator, mot
     elif motion != "free":
         raise ValueError(f"motion {motion!r} is not a rung of the ladder")
     return {"siren": Field, "grid": GridField}[conf.family](conf, n_objects, generator, span)
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """What rebuilds a fitted field before its weights are loaded: `build_field`'s arguments (``model``
+    as the field was built, its band's ``f_max`` included; ``rung``; ``n_objects``; ``rotations`` the
+    scan spans) and the shape [H, W] of its background image (None: none)."""
+
+    model: ModelConf
+    rung: str
+    n_objects: int
+    rotations: float
+    background_shape: tuple[int, int] | None = None
+
+    def build(self) -> SpaceTimeField:
+        """A field of this shape, every tensor to be restored from a state dict (the caller's random
+        streams untouched)."""
+        with torch.random.fork_rng(devices=[]):
+            net = build_field(self.model, self.n_objects, torch.Generator(), self.rung, self.rotations)
+        if self.background_shape is not None:
+            net.set_background(torch.zeros(self.background_shape))
+        return net

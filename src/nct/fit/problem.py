@@ -8,7 +8,6 @@ rotations from the first view, derived from the views' angles and times.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -26,7 +25,16 @@ from nct.moments.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
 from nct.physics.projector import fbp_frames
 
-Clock = Callable[[np.ndarray], torch.Tensor]  # seconds [T] -> rotations since the first view [T]
+@dataclass(frozen=True)
+class Clock:
+    """Seconds -> gantry rotations since the first view (at ``t0`` s; ``turns_per_s`` rotations a
+    second): [T] -> [T] float32. Two numbers, so a saved field keeps its clock (method/fitted.py)."""
+
+    t0: float
+    turns_per_s: float
+
+    def __call__(self, t: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor((np.asarray(t, dtype=np.float64) - self.t0) * self.turns_per_s, dtype=torch.float32)
 
 
 def rotations_since_start(sino: Sinogram) -> Clock:
@@ -35,8 +43,7 @@ def rotations_since_start(sino: Sinogram) -> Clock:
     turns_per_s = float(np.ptp(np.unwrap(sino.angles))) / (2 * math.pi) / span_t if span_t > 0 else 0.0
     if not turns_per_s > 0:
         raise ValueError("the sinogram's views must span a positive time and gantry angle")
-    t0 = float(sino.times[0])
-    return lambda t: torch.as_tensor((np.asarray(t, dtype=np.float64) - t0) * turns_per_s, dtype=torch.float32)
+    return Clock(float(sino.times[0]), turns_per_s)
 
 
 def rotations_spanned(sino: Sinogram) -> float:

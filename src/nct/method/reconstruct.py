@@ -20,6 +20,7 @@ import torch
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
 from nct.fields.base import SpaceTimeField
+from nct.fields.build import FieldSpec
 from nct.fields.conf import ModelConf
 from nct.fit.conf import (
     LOGGERS,
@@ -36,6 +37,7 @@ from nct.fit.stages import FieldStage, SinogramFit
 from nct.fit.trainer import RunClock, snapshot
 from nct.init.conf import BackgroundConf, InitConf
 from nct.init.sdf import binarise, masks_to_sdf
+from nct.method.fitted import FittedField, acquisition_span
 from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
 from nct.select.race import race
@@ -67,7 +69,8 @@ class NCTResult:
     selection: the tournament's verdict (winner, reason, one row per candidate: selection.csv);
     init: the starts (init/segmentation.py's route, levels), the units, in the data's, and the degrees of view angle a
     held axis leaves its object's own frame seen over (fit/problem.py; None: none held); trace: snapshots;
-    background: the static image [H, W] float32 under the objects (``background=image``; None: none).
+    background: the static image [H, W] float32 under the objects (``background=image``; None: none);
+    fitted: the winner's field, moved to the CPU, and what rebuilds and renders it (method/fitted.py).
     """
 
     frames: np.ndarray
@@ -81,6 +84,7 @@ class NCTResult:
     init: dict = field(default_factory=dict)
     trace: list[TracePoint] = field(default_factory=list)
     background: np.ndarray | None = None
+    fitted: FittedField | None = None
 
 
 @torch.no_grad()
@@ -159,7 +163,18 @@ def reconstruct(
         init=_init_record(chosen, winner, init.levels),
         trace=trace,
         background=None if net.background is None else
-        (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32))
+        (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32),
+        fitted=_fitted(prob, fit.field.cpu(), winner, model, sino, grid, render))
+
+
+def _fitted(prob: Problem, net: SpaceTimeField, winner: Candidate, model: ModelConf, sino: Sinogram, grid: ImageGrid,
+            render: RenderConf) -> FittedField:
+    """The winner's field ``net`` and what rebuilds it (its model as built: `select.race.Race.start`) and
+    renders it."""
+    built = model if winner.f_max is None else replace(model, f_max=winner.f_max)
+    shape = None if net.background is None else tuple(net.background.shape)
+    spec = FieldSpec(built, winner.rung, winner.scene.n_objects, prob.span, shape)
+    return FittedField(net, spec, prob.units, grid, prob.clock, acquisition_span(sino.times), render)
 
 
 def _refine(prob: Problem, session: Session, net: SpaceTimeField, fit: SinogramFit, seed: int, optim: OptimConf,

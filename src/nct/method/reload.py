@@ -1,67 +1,37 @@
-"""A finished run's fitted field, rebuilt from its checkpoint and rendered at any times and resolution.
+"""A finished reconstruction's fitted field, rendered at any times and resolution.
 
 The field g(x, t) is a continuous function of space and time; a run samples it only at its own
-frame times on its own grid. ``load_run`` rebuilds the field from the run folder alone (its Hydra
-config, ``metrics.json``, ``sinogram.npz`` and the last stage checkpoint of the chosen model,
-loaded with ``weights_only``), and ``render`` draws intensity and SDF frames from it exactly as
-``method.reconstruct`` does, so at the run's own times and grid it gives the run's own frames.
+frame times on its own grid. ``load_run`` checks a run folder and reads its field file
+(method/fitted.py: ``checkpoints/field.pt``, the same file `nct.load` reads), and ``render`` draws
+intensity and SDF frames from it exactly as ``method.reconstruct`` does, so at the run's own times
+and grid it gives the run's own frames.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import OmegaConf
 
-from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import InputError
-from nct.fields.base import SpaceTimeField
-from nct.fields.build import build_field
-from nct.fields.conf import ModelConf
-from nct.fit.conf import OptimConf, RenderConf
-from nct.fit.problem import rotations_since_start, rotations_spanned
+from nct.fit.conf import OptimConf
 from nct.fit.render import intensity
 from nct.fit.stages import FieldStage
-from nct.fit.units import Units
+from nct.method.fitted import FIELD_FILE, FittedField, load_field
 from nct.method.reconstruct import field_frames
-
-# A field saved before fields could turn (session 40), turn one part of several (41) or hold a darker
-# nested object (42) renders as fitted
-LATER_STATE = ("turn", "turned", "turned_object", "signs")
 
 
 @dataclass(frozen=True)
 class FittedRun:
-    """What rendering a run's field needs.
+    """A finished run's fitted field (``fitted``) and its movie frame rate (``fps``, config export.fps)."""
 
-    field: the fitted field with its a(k) (method units); units: the
-    run's units (fit/units.py); grid: the run's own grid (data units); clock: seconds ->
-    rotations since the first view; span: (first, last) second of the acquisition; render: the
-    run's occupancy settings; fps: the run's movie frame rate; checkpoint: the file loaded.
-    """
-
-    field: SpaceTimeField
-    units: Units
-    grid: ImageGrid
-    clock: Callable[[np.ndarray], torch.Tensor]
-    span: tuple[float, float]
-    render: RenderConf
+    fitted: FittedField
     fps: float
-    checkpoint: Path
-
-
-def acquisition_span(times: np.ndarray) -> tuple[float, float]:
-    """First and last second of an acquisition with views at ``times`` [V]: each view lasts until
-    the next and the last one as long as the median, so a run's frame times (centred in their
-    slots of the acquisition) always lie inside."""
-    step = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
-    return float(times[0]), float(times[-1]) + step
 
 
 def even_times(span: tuple[float, float], n: int) -> np.ndarray:
@@ -70,29 +40,9 @@ def even_times(span: tuple[float, float], n: int) -> np.ndarray:
     return start + (np.arange(n) + 0.5) * ((end - start) / n)
 
 
-def _typed(schema: type, node: DictConfig):
-    """A config group of the run's saved config as its schema's dataclass (range checks run)."""
-    return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), node))
-
-
-def _read_json(path: Path) -> dict:
-    return json.loads(path.read_text())
-
-
-def _checkpoint(run_dir: Path, stages: dict, winner: str) -> Path:
-    """The last saved stage checkpoint of the chosen field: the refinement's if any, else the
-    tournament winner's (metrics.json -> selection -> winner; selection.csv)."""
-    ours = [s for s in (f"{winner}_fit", "refine_init", "refine_fit") if s in stages]
-    saved = [run_dir / "checkpoints" / s / "last.ckpt" for s in ours]
-    saved = [p for p in saved if p.is_file()]
-    if not saved:
-        raise InputError(f"{run_dir} holds no checkpoint of its fitted field (checkpoints/<stage>/last.ckpt)")
-    return saved[-1]
-
-
 def load_run(run_dir: Path) -> FittedRun:
-    """Rebuild the fitted field of the finished NeuralCT run in ``run_dir``; ``InputError`` saying
-    why when the folder is no run, an FBP-only run, unfinished or without a checkpoint."""
+    """The fitted field of the finished NeuralCT run in ``run_dir``; ``InputError`` saying why when the
+    folder is no run, an FBP-only run, unfinished or without its field file."""
     run_dir = Path(run_dir)
     config, status = run_dir / ".hydra" / "config.yaml", run_dir / "status.json"
     if not (config.is_file() and status.is_file()):
@@ -100,40 +50,23 @@ def load_run(run_dir: Path) -> FittedRun:
     cfg = OmegaConf.load(config)
     if cfg.get("method") == "fbp":
         raise InputError(f"{run_dir} is an FBP-only run (method=fbp): it fitted no field to render")
-    state = _read_json(status).get("status")
+    state = json.loads(status.read_text()).get("status")
     if state != "ok":
         raise InputError(f"{run_dir} did not finish (status.json: {state}): nothing to render")
-    metrics = _read_json(run_dir / "metrics.json")
-    if "selection" not in metrics:
-        raise InputError(f"{run_dir} was written by an older nct (metrics.json has no selection): rerun it")
-    model: ModelConf = _typed(ModelConf, cfg.model)
-    path = _checkpoint(run_dir, metrics["stages"], metrics["selection"]["winner"])
-    # The winner's own construction (method.reconstruct); every tensor, the frequencies ``omega``
-    # included, is then restored from the checkpoint.
-    sino = load_sinogram(run_dir / "sinogram.npz")
-    net = build_field(model, len(metrics["intensities"]), torch.Generator(), metrics["model"]["motion"],
-                      rotations_spanned(sino))
-    weights = torch.load(path, map_location="cpu", weights_only=True)["state_dict"]
-    weights = {k.removeprefix("field."): v for k, v in weights.items() if k.startswith("field.")}
-    if "background" in weights:
-        net.set_background(weights["background"])
-    weights = {**{k: v for k, v in net.state_dict().items() if k in LATER_STATE}, **weights}
-    missing = sorted(set(net.state_dict()) - set(weights))
-    if missing:
-        raise InputError(f"{run_dir} was written by an older nct (its checkpoint has no {', '.join(missing)}): "
-                         "rerun it")
-    net.load_state_dict(weights)
-    net.eval()
-    units = Units(metrics["init"]["length_unit"], metrics["init"]["intensity_unit"])
-    with np.load(run_dir / "reconstruction.npz") as rec:
-        grid = ImageGrid(int(rec["nct"].shape[-1]), float(rec["extent"]))
-    return FittedRun(net, units, grid, rotations_since_start(sino), acquisition_span(sino.times),
-                     _typed(RenderConf, cfg.render), float(cfg.export.fps), path)
+    return FittedRun(load_field(run_dir / FIELD_FILE), float(cfg.export.fps))
 
 
-def render(run: FittedRun, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+def check_times(span: tuple[float, float], times: np.ndarray, key: str) -> None:
+    """`InputError` naming ``key`` when one of ``times`` [T] (s) lies outside the acquisition ``span``."""
+    start, end = span
+    outside = [float(t) for t in times if not start <= t <= end]
+    if outside:
+        raise InputError(f"{key} {outside[0]:g} lies outside the acquisition, {start:g} s to {end:g} s")
+
+
+def render(run: FittedField, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Intensity frames [T, size, size] and SDF frames [T, K, size, size] (float32, data units) at
-    ``times`` [T] (s) over the run's field of view.
+    ``times`` [T] (s) over the reconstruction's field of view.
 
     The occupancy ramp keeps the physical width the fit used (``render.band_px`` pixels of the
     run's grid), whatever ``size``: the fitted image is b + sum_k a(k) zeta(g_k) with that ramp (b:

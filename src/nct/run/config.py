@@ -20,6 +20,7 @@ from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from nct.acquisition.geometry import FanGeometry
+from nct.acquisition.scan import FRAMES_PER_ROTATION, SIZE
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.times import TIMES_UNITS
 from nct.errors import InputError, require
@@ -154,9 +155,9 @@ class FanScannerConf(ScannerConf):
 class ImageConf:
     """Reconstruction grid (``size`` pixels a side over ``extent``) and output frames per rotation."""
 
-    size: int = 128
+    size: int = SIZE
     extent: float = 1.0
-    frames_per_rotation: int = 36
+    frames_per_rotation: int = FRAMES_PER_ROTATION
 
     def __post_init__(self) -> None:
         ImageGrid(self.size, self.extent)

@@ -1,4 +1,5 @@
-"""Files a run leaves for people and other tools: frames (.npz, .tiff), PNG strips, GIF movies.
+"""Files a run leaves for people and other tools: TIFF stacks, PNG strips, GIF movies (the frames' .npz:
+run/reconstruction.py).
 
 Each picture is built by a function returning its matplotlib Figure (titled, axes labelled with
 units, a colourbar for images, legends outside the axes so they cover no data), then saved.
@@ -26,13 +27,6 @@ INTENSITY_LABEL = "intensity (the data's unit)"
 MSE_LABEL = "MSE (intensity unit²)"
 TIME_LABEL = "frame time (ms)"
 TIFF_UNIT = "unit"  # ImageJ's name of the length unit of the TIFFs' pixel size: the data's, unnamed
-
-
-def save_reconstruction(path: Path, times: np.ndarray, extent: float, frames: dict[str, np.ndarray]) -> None:
-    """``reconstruction.npz``: each method's frames [F,H,W] float32 (``fbp``, ``nct``), ``times`` [F], ``extent``,
-    and any other arrays of ``frames`` (NeuralCT's masks, as bool, and background) as they are."""
-    arrays = {name: f if f.dtype == bool else np.asarray(f, dtype=np.float32) for name, f in frames.items()}
-    np.savez_compressed(path, times=np.asarray(times, dtype=np.float64), extent=np.float64(extent), **arrays)
 
 
 def save_tiffs(folder: Path, frames: dict[str, np.ndarray], times: np.ndarray, extent: float) -> None:

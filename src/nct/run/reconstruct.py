@@ -1,0 +1,101 @@
+"""The one way from a `Scan` to a `Reconstruction`: checks of the data, FBP, NeuralCT, the truth-free warnings.
+
+`nct.reconstruct` (api.py) and the ``nct`` command (run/pipeline.py) both call `reconstruct_scan`, so a
+sinogram gives the same frames from Python and from the command line.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from nct.acquisition.scan import Scan
+from nct.acquisition.times import slow_rotation_warning
+from nct.moments.determinacy import (
+    determinacy_warnings,
+    motion_determinacy,
+    turn_warnings,
+)
+from nct.physics.projector import fbp_frames
+from nct.run.config import NCTConf, chosen_objects
+from nct.run.consistency import check_geometry, geometry_warnings
+from nct.run.reconstruction import Reconstruction
+
+log = logging.getLogger(__name__)
+
+
+def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
+                     lap: Callable[[str], None] = lambda phase: None) -> Reconstruction:
+    """FBP, and NeuralCT unless ``method=fbp``, of ``scan`` with the settings ``conf`` (torch's threads
+    ``conf.threads`` where set, every random stream seeded from ``conf.seed``); the data's checks and
+    the run's warnings (a measured scan's times and geometry too; a simulation's are those that made it).
+    ``log_dir``: where the fits write their checkpoints and logs (None: nowhere); ``lap``: the run's
+    stopwatch (`Phases.lap`), told as each phase ends."""
+    import torch
+
+    if conf.threads is not None:
+        torch.set_num_threads(conf.threads)
+    if conf.method == "nct":  # FBP draws no global random numbers (lazy: Lightning is ~3 s of start-up)
+        import lightning
+
+        lightning.seed_everything(conf.seed, workers=True, verbose=False)
+    sino, grid = scan.sinogram, scan.grid
+    motion, geometry = motion_determinacy(sino, grid), check_geometry(sino)
+    lap("checks")
+    log.info("FBP: %d frames of %d x %d pixels ...", len(scan.frame_times), grid.size, grid.size)
+    fbp = fbp_frames(sino, grid, scan.frame_times, conf.fbp.window_deg, conf.fbp.filter).astype(np.float32, copy=False)
+    lap("fbp")
+    rec = Reconstruction(scan, fbp) if conf.method != "nct" else _neuralct(scan, conf, fbp, log_dir, lap)
+    measured = not scan.simulated
+    extra = dict(rec.record)
+    rec.warnings = ((slow_rotation_warning(sino.angles, sino.times, scan.times_unit) if measured else [])
+                    + determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
+                    + (geometry_warnings(geometry, sino, conf.suspect) if measured else [])
+                    + suspect_fit(conf, scan, extra))
+    lap("checks")
+    record = {"times": scan.frame_times.tolist(), **extra,
+              "motion_determinacy": asdict(motion) if motion is not None else None,
+              "geometry_check": asdict(geometry) if geometry is not None else None}
+    rec.record = json.loads(json.dumps(record))  # plain JSON values, as metrics.json and a saved one hold them
+    return rec
+
+
+def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
+              lap: Callable[[str], None]) -> Reconstruction:
+    """NeuralCT's frames, parts and record beside the FBP frames ``fbp`` (method/reconstruct.py)."""
+    from nct.method.reconstruct import reconstruct
+
+    log.info("NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...")
+    result = reconstruct(
+        scan.sinogram, scan.grid, scan.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
+        log_dir=log_dir, logger=conf.logger.name,
+        fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=chosen_objects(conf.data.n_objects),
+        motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
+        background=conf.background,
+        resume=conf.resume, lap=lap,
+    )
+    lap("refinement")
+    record = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model,
+              "selection": result.selection, "stages": result.stages,
+              "intensities": [float(a) for a in result.intensities], "init": result.init}
+    return Reconstruction(scan, fbp, result.frames, result.sdf > 0, result.background, record=record,
+                          fitted=result.fitted, trace=result.trace)
+
+
+def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
+    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`), none without one; adds FBP's and
+    the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``, ``heldout_noise_loss``)."""
+    if "heldout_loss" not in extra:
+        return []
+    from nct.run.suspect import heldout_misfits, suspect_warnings
+
+    misfits = heldout_misfits(scan.sinogram, scan.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
+    if misfits is None:
+        return []
+    extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
+    return suspect_warnings(misfits, conf.suspect, not scan.simulated)
