@@ -25,6 +25,7 @@ from nct.moments.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
 from nct.physics.projector import fbp_frames
 
+
 @dataclass(frozen=True)
 class Clock:
     """Seconds -> gantry rotations since the first view (at ``t0`` s; ``turns_per_s`` rotations a
