@@ -28,11 +28,11 @@ def test_a_saved_field_loads_with_every_tensor_and_setting(tmp_path: Path, rung,
             if value.is_floating_point():
                 value.uniform_(-1, 1)  # any weights: the file must carry them, not rebuild them
     fitted = FittedField(net, spec, Units(2.0, 3.0), ImageGrid(24, 2.0), Clock(0.1, 4.0), (0.1, 0.6),
-                         RenderConf(band_px=1.5))
+                         RenderConf(band_px=1.5), 12)
     save_field(tmp_path / "checkpoints" / "field.pt", fitted)
     again = load_field(tmp_path / "checkpoints" / "field.pt")
-    assert (again.spec, again.units, again.grid, again.clock, again.span, again.render) == \
-        (spec, fitted.units, fitted.grid, fitted.clock, fitted.span, fitted.render)
+    assert (again.spec, again.units, again.grid, again.clock, again.span, again.render, again.lattice) == \
+        (spec, fitted.units, fitted.grid, fitted.clock, fitted.span, fitted.render, 12)
     for key, value in net.state_dict().items():
         torch.testing.assert_close(again.field.state_dict()[key], value, rtol=0, atol=0)
 
@@ -54,7 +54,7 @@ def test_a_missing_foreign_or_older_file_is_refused(tmp_path: Path):
     with pytest.raises(InputError, match="is not a field file of this nct"):
         load_field(path)
     spec = FieldSpec(MODEL, "free", 1, 1.0)
-    fitted = FittedField(spec.build(), spec, Units(1.0), ImageGrid(8), Clock(0.0, 4.0), (0.0, 0.25), RenderConf())
+    fitted = FittedField(spec.build(), spec, Units(1.0), ImageGrid(8), Clock(0.0, 4.0), (0.0, 0.25), RenderConf(), 8)
     save_field(path, fitted)
     saved = torch.load(path, weights_only=True)
     saved["state_dict"].pop("omega")

@@ -33,7 +33,9 @@ class FittedField:
     """A fitted field (on the CPU, method units) and what renders it: ``spec`` rebuilds it, ``units`` map
     the method's units to the data's, ``grid`` is the reconstruction's own (data units), ``clock`` maps
     seconds to rotations since the first view, ``span`` the acquisition's first and last second
-    (`acquisition_span`), ``render`` the occupancy settings of the fit."""
+    (`acquisition_span`), ``render`` the occupancy settings of the fit and ``lattice`` the side of the lattice
+    over the field of view its last stage drew the field on (the image it fitted: that lattice's values
+    interpolated bilinearly; fit/stages.FieldStage)."""
 
     field: SpaceTimeField
     spec: FieldSpec
@@ -42,6 +44,7 @@ class FittedField:
     clock: Clock
     span: tuple[float, float]
     render: RenderConf
+    lattice: int
 
 
 def acquisition_span(times: np.ndarray) -> tuple[float, float]:
@@ -60,7 +63,7 @@ def save_field(path: Path, fitted: FittedField) -> None:
     torch.save({"spec": {"model": asdict(spec.model), "rung": spec.rung, "n_objects": spec.n_objects,
                          "rotations": spec.rotations, "background_shape": background},
                 "units": asdict(fitted.units), "grid": asdict(fitted.grid), "clock": asdict(fitted.clock),
-                "span": list(fitted.span), "render": asdict(fitted.render),
+                "span": list(fitted.span), "render": asdict(fitted.render), "lattice": fitted.lattice,
                 "state_dict": fitted.field.state_dict()}, path)
 
 
@@ -77,7 +80,8 @@ def load_field(path: Path) -> FittedField:
         spec = FieldSpec(ModelConf(**spec["model"]), spec["rung"], spec["n_objects"], spec["rotations"],
                          None if shape is None else tuple(shape))
         parts = (Units(**saved["units"]), ImageGrid(**saved["grid"]), Clock(**saved["clock"]),
-                 (float(saved["span"][0]), float(saved["span"][1])), RenderConf(**saved["render"]))
+                 (float(saved["span"][0]), float(saved["span"][1])), RenderConf(**saved["render"]),
+                 int(saved["lattice"]))
     except (OSError, RuntimeError, pickle.UnpicklingError, KeyError, TypeError, ValueError) as err:
         raise InputError(f"{path} is not a field file of this nct ({_first_line(err)}): rerun it") from None
     net = spec.build()

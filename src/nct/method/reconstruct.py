@@ -164,17 +164,18 @@ def reconstruct(
         trace=trace,
         background=None if net.background is None else
         (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32),
-        fitted=_fitted(prob, fit.field.cpu(), winner, model, sino, grid, render))
+        fitted=_fitted(prob, fit, winner, model, sino, grid, render))
 
 
-def _fitted(prob: Problem, net: SpaceTimeField, winner: Candidate, model: ModelConf, sino: Sinogram, grid: ImageGrid,
+def _fitted(prob: Problem, fit: FieldStage, winner: Candidate, model: ModelConf, sino: Sinogram, grid: ImageGrid,
             render: RenderConf) -> FittedField:
-    """The winner's field ``net`` and what rebuilds it (its model as built: `select.race.Race.start`) and
-    renders it."""
+    """The winner's field (on the CPU, from its last stage ``fit``) and what rebuilds it (its model as built:
+    `select.race.Race.start`) and renders it as that stage drew it."""
+    net = fit.field.cpu()
     built = model if winner.f_max is None else replace(model, f_max=winner.f_max)
     shape = None if net.background is None else tuple(net.background.shape)
     spec = FieldSpec(built, winner.rung, winner.scene.n_objects, prob.span, shape)
-    return FittedField(net, spec, prob.units, grid, prob.clock, acquisition_span(sino.times), render)
+    return FittedField(net, spec, prob.units, grid, prob.clock, acquisition_span(sino.times), render, fit.lattice)
 
 
 def _refine(prob: Problem, session: Session, net: SpaceTimeField, fit: SinogramFit, seed: int, optim: OptimConf,

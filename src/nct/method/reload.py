@@ -71,11 +71,12 @@ def render(run: FittedField, times: np.ndarray, size: int) -> tuple[np.ndarray, 
     The occupancy ramp keeps the physical width the fit used (``render.band_px`` pixels of the
     run's grid), whatever ``size``: the fitted image is b + sum_k a(k) zeta(g_k) with that ramp (b:
     the static background, if any, resampled bilinearly), and every size samples that one image
-    (a ramp of band_px new pixels would sharpen or blur it).
+    (a ramp of band_px new pixels would sharpen or blur it). The field is drawn as its last stage drew it, on
+    ``run.lattice``^2 points interpolated bilinearly, so the run's own times and size give its own frames.
     """
     band = run.render.band_px * run.units.grid(run.grid).pixel_size
     grid = run.units.grid(ImageGrid(size, run.grid.extent))
-    sdf = field_frames(FieldStage(run.field, grid, OptimConf()), run.clock(times))
+    sdf = field_frames(FieldStage(run.field, grid, OptimConf(), run.lattice), run.clock(times))
     background = None if run.field.background is None else run.field.background.detach()
     frames = intensity(torch.from_numpy(sdf), run.field.intensities.detach(), band, run.render.mu, background).numpy()
     frames, sdf = frames * run.units.intensity, sdf * run.units.length
