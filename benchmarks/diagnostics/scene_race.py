@@ -66,8 +66,8 @@ def scene_files(out: Path, size: int) -> list[SceneFile]:
     textured = {T.scene_name(s): s for s in S.draw_textured_scenes(0, 3)}
     for name in TEXTURED:
         s = textured[name]
-        found.append(SceneFile(name, write_scene(s, out / "scenes" / f"{name}.npz", size, 12, 0),
-                               raced(len(moving_levels(s)), "image", len(s.objects))))
+        path = write_scene(s, out / "scenes" / f"{name}.npz", size, 12, 0, level=0.5 * s.objects[0].intensity)
+        found.append(SceneFile(name, path, raced(len(moving_levels(s)), "image", len(s.objects))))
     vessel = surround_scenes(720)[0]
     found.append(SceneFile("vessel", write_scene(vessel, out / "scenes" / "vessel.npz", size, 12, 0),
                            raced(1, "image", len(vessel.objects))))

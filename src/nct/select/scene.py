@@ -3,6 +3,7 @@ for it and the starts found for it."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -18,7 +19,9 @@ from nct.init.starts import Found, Sought, search, sought
 from nct.select.candidates import BACKGROUND_ORDER, SceneModel
 
 MAX_OBJECTS = 4  # the most objects of distinct intensity a run proposes from the data (data.n_objects=auto)
-JUDGED_TOLERANCE = 0.1  # the fewest objects whose masks explain the views within this of the best K's
+OBJECT_GAIN = 0.8  # the judge's price of an object: a model with one more must cut the residual to this share
+IMAGE_RATIO = 1.5  # ... and of a background image: it must cut the residual to 1 / this
+RACE_MARGIN = 1.25  # the runner-up is raced too where its price is within this factor of the proposal's
 
 
 @dataclass
@@ -90,29 +93,46 @@ def set_up(prepared: Preparation, scene: SceneModel, seed: int) -> SceneSetup:
 
 
 def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> list[SceneSetup]:
-    """The scene models the run's tournament compares, set up: the user's K and background where set; otherwise,
-    for each background offered (``background=auto``: none, then a static image), the fewest objects whose judged
-    masks explain the views within ``JUDGED_TOLERANCE`` of the best of 1 ... ``MAX_OBJECTS`` (``fewest``)."""
+    """The scene models the run's tournament compares, set up, simplest first: those the user's K and
+    background allow (``data.n_objects`` auto: 1 ... ``MAX_OBJECTS``; ``background=auto``: none and an image),
+    each priced by how well its judged masks explain the views (``price``); the cheapest, and the runner-up
+    where its price is within ``RACE_MARGIN`` of it (the held-out views then choose)."""
     name = prepared.background.name
     backgrounds = BACKGROUND_ORDER if name == "auto" else (name,)
-    if n_objects is not None:
-        return [set_up(prepared, SceneModel(n_objects, b), seed) for b in backgrounds]
+    counts = range(1, MAX_OBJECTS + 1) if n_objects is None else (n_objects,)
+    models = [SceneModel(k, b) for b in backgrounds for k in counts]
+    if len(models) == 1:
+        return [set_up(prepared, models[0], seed)]
     if prepared.init.levels != "sinogram":
-        raise InputError("data.n_objects=auto needs init.levels=sinogram (the judge that counts the objects): "
-                         "set data.n_objects, or init.levels=sinogram")
-    chosen = []
-    for b in backgrounds:
-        tried = [set_up(prepared, SceneModel(1, b), seed)]
-        for k in range(2, MAX_OBJECTS + 1):
-            try:
-                tried.append(set_up(prepared, SceneModel(k, b), seed))
-            except NoObjectError:
-                break
-        chosen.append(fewest(tried))
-    return chosen
+        raise InputError("choosing the objects or the background from the data needs init.levels=sinogram (the "
+                         "judge that prices them): set data.n_objects and background, or init.levels=sinogram")
+    return raced(_found(prepared, models, seed))
 
 
-def fewest(tried: list[SceneSetup]) -> SceneSetup:
-    """The set-up with the fewest objects whose judged misfit is within ``JUDGED_TOLERANCE`` of the best's."""
-    best = min(s.judged for s in tried)
-    return next(s for s in tried if s.judged <= (1 + JUDGED_TOLERANCE) * best)
+def raced(setups: list[SceneSetup]) -> list[SceneSetup]:
+    """The cheapest of ``setups`` (``price``), and the runner-up where its price is within ``RACE_MARGIN`` of the
+    cheapest's, simplest first."""
+    ranked = sorted(setups, key=price)
+    kept = [s for s in ranked[:2] if price(s) <= price(ranked[0]) + math.log(RACE_MARGIN)]
+    return sorted(kept, key=lambda s: s.model.simplicity)
+
+
+def _found(prepared: Preparation, models: list[SceneModel], seed: int) -> list[SceneSetup]:
+    """Each of ``models`` set up, those in which no object stands out left out (NoObjectError if none is left)."""
+    found = []
+    for model in models:
+        try:
+            found.append(set_up(prepared, model, seed))
+        except NoObjectError as err:
+            last = err
+    if not found:
+        raise last
+    return found
+
+
+def price(setup: SceneSetup) -> float:
+    """A scene model's price: log of its best judged segmentation's residual, plus ``log(1 / OBJECT_GAIN)`` an
+    object and ``log(IMAGE_RATIO)`` for a background image (a model must earn its parts)."""
+    model = setup.model
+    return (math.log(max(setup.judged, 1e-12)) + model.n_objects * math.log(1 / OBJECT_GAIN)
+            + (model.background == "image") * math.log(IMAGE_RATIO))

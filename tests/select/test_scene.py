@@ -1,0 +1,39 @@
+"""Which scene models a run races, from how well each one's judged masks explain the views."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+
+from nct.select.candidates import SceneModel
+from nct.select.scene import raced
+
+
+@dataclass
+class Judged:
+    """A scene model and its best judged residual: all that ``raced`` reads of a set-up."""
+
+    model: SceneModel
+    judged: float
+
+
+def labels(setups: list[Judged]) -> list[str]:
+    return [s.model.label for s in raced(setups)]
+
+
+@pytest.mark.parametrize("two, expected", [(0.11, ["k1_none"]), (0.09, ["k1_none", "k2_none"]),
+                                           (0.07, ["k1_none", "k2_none"]), (0.05, ["k2_none"])])
+def test_an_object_must_earn_its_place(two, expected):
+    """An object is priced at a factor 1 / 0.8 of the residual: two objects that do not cut 0.1 leave one alone;
+    within a factor 1.25 of the break-even 0.08 both are raced (the held-out views choose); 0.05 proposes two."""
+    assert labels([Judged(SceneModel(1), 0.1), Judged(SceneModel(2), two)]) == expected
+
+
+def test_a_background_image_must_cut_the_residual_by_half_again():
+    """The image model's own price is a factor 1.5; the runner-up is raced only within 1.25 of the cheapest."""
+    plain = Judged(SceneModel(1), 0.1)
+    assert labels([plain, Judged(SceneModel(1, "image"), 0.09)]) == ["k1_none"]
+    assert labels([plain, Judged(SceneModel(1, "image"), 0.02)]) == ["k1_image"]
+    close = labels([plain, Judged(SceneModel(1, "image"), 0.06), Judged(SceneModel(3), 0.2)])
+    assert close == ["k1_none", "k1_image"]
