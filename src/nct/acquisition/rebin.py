@@ -34,7 +34,7 @@ def to_parallel(sino: Sinogram) -> Sinogram:
     first and last views, when it covers less than a turn plus the fan angle) take the nearest view.
     """
     geometry = sino.geometry
-    if isinstance(geometry, ParallelGeometry) and geometry.detector_offset == 0:
+    if geometry.is_parallel and geometry.detector_offset == 0:
         return sino
     target = parallel_geometry_for(geometry)
     theta = _monotonic(np.unwrap(np.asarray(sino.angles, dtype=np.float64)))

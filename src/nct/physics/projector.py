@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from nct.acquisition.geometry import FanGeometry, Geometry, ParallelGeometry
+from nct.acquisition.geometry import Geometry, ParallelGeometry
 from nct.acquisition.rebin import to_parallel
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
@@ -45,11 +45,7 @@ class Projector(nn.Module):
         super().__init__()
         _check_sampling(size, extent, ray_step, bin_samples)
         half = extent / 2
-        if isinstance(geometry, FanGeometry) and not geometry.source_distance > half * math.sqrt(2):
-            raise ValueError(
-                f"source_distance must exceed the image's half-diagonal {half * math.sqrt(2):.4g}"
-                f" (the source must lie outside the field of view), got {geometry.source_distance}"
-            )
+        geometry.check_source_outside(half * math.sqrt(2), "the image's half-diagonal")
         self.n_bins = geometry.n_bins
         # Rays in grid_sample's units (half the image side is 1), computed in the images' dtype.
         self.unit_geometry = geometry.scaled(1 / half)

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import legendre
 
-from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.rebin import parallel_geometry_for
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.trajectory import centroid_projections
@@ -136,7 +135,7 @@ def check_geometry(sino: Sinogram) -> GeometryCheck | None:
                if 2 * d + 3 < len(tau)] or [0]
     pitch = parallel_geometry_for(sino.geometry).bin_spacing  # the file's pitch at the axis
     offset = _offset(theta, tau, moments / pitch, degrees)
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         return GeometryCheck(offset, None)
     totals = np.asarray(sino.values, dtype=np.float64)[ok].sum(axis=1)
     radius = sino.geometry.field_radius
