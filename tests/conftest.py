@@ -42,6 +42,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.figure import Figure
 from omegaconf import DictConfig
+from skimage.transform import radon
 from threadpoolctl import threadpool_limits
 
 from nct.acquisition.geometry import FanGeometry, ParallelGeometry
@@ -53,13 +54,8 @@ from nct.fields.conf import ModelConf
 from nct.fit.conf import LossConf, OptimConf, TrainerConf
 from nct.init.conf import BackgroundConf, InitConf
 from nct.method.reconstruct import reconstruct
-from nct.scenes.phantoms import (
-    CircleConf,
-    ComposedConf,
-    EllipseConf,
-    Signal,
-    build_phantom,
-)
+from nct.scenes.phantoms import CircleConf, ComposedConf, build_phantom
+from nct.scenes.signals import EllipseConf, Signal
 from nct.scenes.simulate import simulate
 from nct.select.conf import SelectionConf
 
@@ -271,6 +267,12 @@ def ellipse_image(grid: ImageGrid, ellipses=ELLIPSES, supersample: int = 8) -> n
 
 def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def radon_rows(img: np.ndarray, angles: np.ndarray, pixel_size: float) -> np.ndarray:
+    """skimage radon in the sinogram layout [V, n] and line-integral units (centre at n // 2): an
+    independent projector to check the scenes' projections against."""
+    return radon(img, np.rad2deg(angles), circle=True).T * pixel_size
 
 
 def ray_end_points(theta: np.ndarray, u: np.ndarray, source_distance: float | None = None,
