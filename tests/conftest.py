@@ -275,6 +275,30 @@ def radon_rows(img: np.ndarray, angles: np.ndarray, pixel_size: float) -> np.nda
     return radon(img, np.rad2deg(angles), circle=True).T * pixel_size
 
 
+def ellipse_projection(s: np.ndarray, angles: np.ndarray, ellipses) -> np.ndarray:
+    """Closed-form parallel-beam line integrals of filled ellipses at detector positions s: [V, n_bins] float64.
+
+    Along direction theta an ellipse of semi-axes a, b (a at angle phi) has support half-width
+    r = sqrt(a^2 cos^2(theta - phi) + b^2 sin^2(theta - phi)) about its centre's s, and chord
+    length 2 a b sqrt(r^2 - s'^2) / r^2 at offset s'.
+    """
+    total = np.zeros((len(angles), len(s)))
+    for cx, cy, a, b, phi, value in ellipses:
+        offset = s[None, :] - (cx * np.cos(angles) + cy * np.sin(angles))[:, None]
+        r2 = ((a * np.cos(angles - phi)) ** 2 + (b * np.sin(angles - phi)) ** 2)[:, None]
+        total += value * 2 * a * b * np.sqrt(np.clip(r2 - offset**2, 0, None)) / r2
+    return total
+
+
+def bins(n_bins: int, spacing: float) -> np.ndarray:
+    """The bin centres of a centred parallel detector."""
+    return Scanner(n_bins=n_bins, bin_spacing=spacing).bin_positions
+
+
+def dice(a: np.ndarray, b: np.ndarray) -> float:
+    return float(2 * (a & b).sum() / (a.sum() + b.sum()))
+
+
 def ray_end_points(theta: np.ndarray, u: np.ndarray, source_distance: float | None = None,
                    detector_distance: float | None = None, detector_shape: str = "flat",
                    reach: float = 10.0) -> tuple[np.ndarray, np.ndarray]:

@@ -118,7 +118,7 @@ def test_heavy_noise_still_gets_an_initialisation(noise_i0):
     """At a few photons per ray (Algorithm 1 alone crashed on some seeds at I0 = 3), the object is
     still found near its place: the masks overlap the disc's."""
     from nct.acquisition.scanner import Scanner
-    from nct.physics.projector import fbp_frames
+    from nct.physics.fbp import fbp_frames
     from nct.scenes.phantoms import CircleConf, build_phantom
     from nct.scenes.simulate import simulate
 

@@ -21,7 +21,7 @@ from nct.moments.determinacy import (
     motion_determinacy,
     turn_warnings,
 )
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 from nct.run.config import NCTConf, chosen_objects
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.reconstruction import Reconstruction
