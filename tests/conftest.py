@@ -189,6 +189,19 @@ def still(x: float, y: float, a: float, b: float, intensity: float) -> EllipseCo
     return EllipseConf(x=Signal(x), y=Signal(y), a=Signal(a), b=Signal(b), intensity=Signal(intensity))
 
 
+def two_object_frames(n_frames: int = 20, noise: float = 0.05, seed: int = 0):
+    """Noisy frames of a bright disc (1.0) and a fainter square (0.4) moving apart: images, masks."""
+    x, y = ImageGrid(48).xy()
+    rng = np.random.default_rng(seed)
+    images, masks = [], []
+    for f in range(n_frames):
+        disc = (x - 0.15 + 0.005 * f) ** 2 + (y - 0.1) ** 2 < 0.15**2
+        square = (np.abs(x + 0.2) < 0.1) & (np.abs(y + 0.15 + 0.004 * f) < 0.1)
+        images.append(1.0 * disc + 0.4 * square + noise * rng.standard_normal(x.shape))
+        masks.append(np.stack([disc, square]))
+    return np.stack(images).astype(np.float32), np.stack(masks)
+
+
 GEOMETRIES = {
     "parallel": ParallelGeometry(96, 1 / 64),
     "parallel-offset": ParallelGeometry(104, 1 / 64, detector_offset=0.06),
