@@ -27,7 +27,7 @@ from numpy.polynomial import legendre
 from nct.acquisition.rebin import parallel_geometry_for
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.trajectory import centroid_projections
-from nct.run.config import SuspectConf
+from nct.run.conf import SuspectConf
 
 DEGREES_PER_ROTATION = (1, 2, 3)  # the motion models: polynomials of these degrees per gantry rotation
 MAX_SE = 0.5  # bins: a model whose offset has a larger standard error cannot tell (its motion mimics a constant)

@@ -22,9 +22,10 @@ from nct.moments.determinacy import (
     turn_warnings,
 )
 from nct.physics.fbp import fbp_frames
-from nct.run.config import NCTConf, chosen_objects
+from nct.run.conf import chosen_objects
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.reconstruction import Reconstruction
+from nct.run.schema import NCTConf
 
 log = logging.getLogger(__name__)
 
