@@ -29,15 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.analysis.benchmarking import (
-    QUIET,
-    Job,
-    Record,
-    benchmark_parser,
-    group,
-    run_jobs,
-    seed_stats,
-)
+from nct.analysis.benchmark_stats import group, seed_stats
+from nct.analysis.benchmarking import QUIET, Job, Record, benchmark_parser, run_jobs
 from nct.run.metrics import RELATIVE_MSE_GOOD
 from nct.run.tables import markdown_table, write_csv
 

@@ -13,7 +13,8 @@ import torch
 
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram
-from nct.physics.projector import fbp_frames, forward_project
+from nct.physics.fbp import fbp_frames
+from nct.physics.projector import forward_project
 
 
 def best_of(fn, repeats: int = 5) -> float:

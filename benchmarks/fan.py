@@ -25,18 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nct.analysis.benchmarking import (
-    QUIET,
-    Job,
-    Record,
-    benchmark_parser,
-    companion,
-    group,
-    median_ok,
-    positive_int,
-    run_jobs,
-    seed_stats,
-)
+from nct.analysis.benchmark_stats import group, median_ok, seed_stats
+from nct.analysis.benchmarking import QUIET, Job, Record, benchmark_parser, companion, positive_int, run_jobs
 from nct.run.tables import markdown_table, write_csv
 
 RADIUS, ORBIT, DEG_PER_ROTATION = 0.15, 0.20, 100.0

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from nct.acquisition.io import load_sinogram
-from nct.run.config import SuspectConf
+from nct.run.conf import SuspectConf
 from nct.run.consistency import check_geometry, geometry_warnings
 
 FAN_KEYS = ("source_distance", "detector_distance", "detector_shape")

@@ -24,20 +24,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
+from nct.analysis.benchmark_stats import extrapolate_time, group, median_ok, pareto_front, seed_stats  # noqa: E402
 from nct.analysis.benchmarking import (  # noqa: E402
     QUIET,
     Job,
     Record,
     benchmark_parser,
     default_config,
-    extrapolate_time,
-    group,
-    median_ok,
-    pareto_front,
     positive_int,
     run_jobs,
     scaled_steps,
-    seed_stats,
     stage_steps,
 )
 from nct.run.metrics import DICE_GOOD  # noqa: E402

@@ -24,19 +24,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
-from nct.analysis.benchmarking import (  # noqa: E402
-    QUIET,
-    Job,
-    Record,
-    benchmark_parser,
-    breakdown_point,
-    default_config,
-    group,
-    median_ok,
-    run_jobs,
-    scaled_steps,
-    seed_stats,
-)
+from nct.analysis.benchmark_stats import breakdown_point, group, median_ok, seed_stats  # noqa: E402
+from nct.analysis.benchmarking import QUIET, Job, Record, benchmark_parser, default_config, run_jobs, scaled_steps  # noqa: E402
 from nct.run.metrics import DICE_GOOD  # noqa: E402
 from nct.run.tables import markdown_table, write_csv  # noqa: E402
 

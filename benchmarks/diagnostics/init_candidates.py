@@ -29,9 +29,10 @@ import nct.init.starts
 from nct.cli.main import CONFIG_MODULE
 from nct.errors import InputError, MethodError
 from nct.init import segmentation as seg
-from nct.run.config import NCTConf, validate
+from nct.run.config import validate
 from nct.run.pipeline import acquire
 from nct.run.reconstruct import reconstruct_scan
+from nct.run.schema import NCTConf
 
 
 class _Caught(Exception):

@@ -1,6 +1,6 @@
 """Where claimed levels matter: for the generalisation benchmark's scenes, the judged choices of
 levels with each mixture class's mean alone and with its claimed level beside it
-(`nct.init.segmentation.claimed_levels`), and whether the starts the run tries change.
+(`nct.init.mixture.claimed_levels`), and whether the starts the run tries change.
 
 A scene whose starts are the same is reconstructed as without the claimed levels; the others are
 the ones to rerun with ``generalisation.py --only`` (benchmarks/results/background: session 43).
@@ -20,7 +20,7 @@ from unittest import mock
 
 import numpy as np
 
-from nct.init import segmentation as seg
+from nct.init import mixture, segmentation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -45,12 +45,12 @@ def compare(path: Path, n_objects: int, overrides: list[str]) -> Choices:
     tried = starts if k > 1 else 1
 
     def outcome() -> tuple[int, list]:
-        classes = seg.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
-        ranked = seg.segmentations(frames, k, copy.deepcopy(rng), kappa, share, route, judge)
-        return len(seg.class_choices(classes, k)), [(c.misfit, c.intensities.tolist()) for c in ranked[:tried]]
+        classes = mixture.mixture_classes(frames, k, copy.deepcopy(rng), kappa, share)
+        ranked = segmentation.segmentations(frames, k, copy.deepcopy(rng), kappa, share, route, judge)
+        return len(mixture.class_choices(classes, k)), [(c.misfit, c.intensities.tolist()) for c in ranked[:tried]]
 
     n_claimed, kept = outcome()
-    with mock.patch.object(seg, "claimed_levels", lambda gmm, values, labels: gmm.means_[:, 0].copy()):
+    with mock.patch.object(mixture, "claimed_levels", lambda gmm, values, labels: gmm.means_[:, 0].copy()):
         n_means, before = outcome()
     return Choices(n_means, n_claimed, bool(np.allclose([m for m, _ in kept], [m for m, _ in before])
                                             and all(np.allclose(a, b) for (_, a), (_, b) in zip(kept, before))))

@@ -31,9 +31,11 @@ from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBase
 from nct.acquisition.scan import Scan
 from nct.acquisition.sinogram import Truth
 from nct.errors import InputError
-from nct.run.config import CONFIG_MODULE, NCTConf, describe, register_configs, unknown_key, validate
+from nct.run.config import validate
 from nct.run.reconstruct import reconstruct_scan
 from nct.run.reconstruction import Reconstruction, load_reconstruction
+from nct.run.schema import CONFIG_MODULE, NCTConf, register_configs
+from nct.run.suggest import describe, unknown_key
 
 __all__ = ["NCTConf", "Reconstruction", "Scan", "Truth", "compose", "load", "reconstruct"]
 

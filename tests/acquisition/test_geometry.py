@@ -140,6 +140,16 @@ def test_projector_refuses_a_source_inside_the_image():
         project(torch.zeros(8, 8), torch.zeros(1), FanGeometry(8, 0.2, 0.6, 1.0), 1.0)
 
 
+def test_the_geometry_says_whether_its_rays_are_parallel_and_where_its_source_is():
+    """Operators ask the geometry, never its type: parallel rays, and a source outside a radius."""
+    parallel, fan = ParallelGeometry(8, 0.1, 0.05), FanGeometry(8, 0.1, 2.0, 1.0)
+    assert parallel.is_parallel and not fan.is_parallel
+    parallel.check_source_outside(1e9, "a disc")
+    fan.check_source_outside(1.99, "a disc")
+    with pytest.raises(ValueError, match=r"^source_distance must exceed a disc 2 \(.*\), got 2.0$"):
+        fan.check_source_outside(2.0, "a disc")
+
+
 def test_ellipse_list_is_off_centre():
     # The chord tests above would miss a mirrored convention for a centred, symmetric scene.
     assert all(abs(cx) + abs(cy) > 0.05 for cx, cy, *_ in ELLIPSES)

@@ -25,7 +25,7 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import InputError
 from nct.fit.units import Units
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 from nct.run.job import run_job
 from nct.scenes.phantoms import StaticConf, build_phantom
 from nct.scenes.simulate import simulate

@@ -12,7 +12,8 @@ import pytest
 from nct.acquisition.geometry import FanGeometry
 from nct.acquisition.io import load_sinogram
 from nct.errors import InputError
-from nct.run.config import FanScannerConf, validate
+from nct.run.conf import FanScannerConf
+from nct.run.config import validate
 from nct.run.job import run_job
 from nct.scenes.phantoms import build_phantom
 from tests.conftest import closed_form_sinogram, compose_config, rel_l2

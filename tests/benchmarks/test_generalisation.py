@@ -19,7 +19,7 @@ from nct.acquisition.io import load_sinogram
 from nct.acquisition.scanner import ImageGrid
 from nct.analysis.benchmarking import Job, Record
 from nct.init.segmentation import segmentations
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 from nct.run.metrics import dice
 from tests.conftest import load_benchmark as load
 

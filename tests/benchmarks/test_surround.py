@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from nct.acquisition.scanner import ImageGrid
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 from nct.run.metrics import dice
 from tests.conftest import LONGER, fit_composed, orbit, still
 

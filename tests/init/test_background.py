@@ -20,7 +20,8 @@ from nct.init.background import moving_problem, moving_region, static_start
 from nct.init.conf import BackgroundConf
 from nct.init.starts import find_starts
 from nct.method.reconstruct import reconstruct
-from nct.scenes.phantoms import ComposedConf, Signal, build_phantom
+from nct.scenes.phantoms import ComposedConf, build_phantom
+from nct.scenes.signals import Signal
 from nct.scenes.simulate import simulate
 from tests.conftest import INIT, LONGER, MODEL, TRAINER, orbit, still
 

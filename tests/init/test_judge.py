@@ -11,8 +11,10 @@ import nct.init.judge as judge_module
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.init.judge import sinogram_judge
 from nct.init.segmentation import segment
-from nct.physics.projector import fbp_frames, project
-from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.physics.fbp import fbp_frames
+from nct.physics.projector import project
+from nct.scenes.phantoms import ComposedConf, build_phantom
+from nct.scenes.signals import EllipseConf, Signal
 from nct.scenes.simulate import simulate
 
 GRID = ImageGrid(48)

@@ -15,31 +15,10 @@ import pytest
 
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import NoObjectError
-from nct.init.segmentation import (
-    OTSU_WORK,
-    MixtureClasses,
-    claimed_levels,
-    class_choices,
-    otsu_bins,
-    otsu_levels,
-    predict_1d,
-    segment,
-)
+from nct.init.otsu import OTSU_WORK, otsu_bins, otsu_levels
+from nct.init.segmentation import segment
 from nct.run.metrics import dice
-from tests.conftest import LONGER, OPTIM, fit_composed, orbit, still
-
-
-def two_object_frames(n_frames: int = 20, noise: float = 0.05, seed: int = 0):
-    """Noisy frames of a bright disc (1.0) and a fainter square (0.4) moving apart: images, masks."""
-    x, y = ImageGrid(48).xy()
-    rng = np.random.default_rng(seed)
-    images, masks = [], []
-    for f in range(n_frames):
-        disc = (x - 0.15 + 0.005 * f) ** 2 + (y - 0.1) ** 2 < 0.15**2
-        square = (np.abs(x + 0.2) < 0.1) & (np.abs(y + 0.15 + 0.004 * f) < 0.1)
-        images.append(1.0 * disc + 0.4 * square + noise * rng.standard_normal(x.shape))
-        masks.append(np.stack([disc, square]))
-    return np.stack(images).astype(np.float32), np.stack(masks)
+from tests.conftest import LONGER, OPTIM, fit_composed, orbit, still, two_object_frames
 
 
 def test_recovers_masks_and_intensities_of_two_objects():
@@ -118,7 +97,7 @@ def test_heavy_noise_still_gets_an_initialisation(noise_i0):
     """At a few photons per ray (Algorithm 1 alone crashed on some seeds at I0 = 3), the object is
     still found near its place: the masks overlap the disc's."""
     from nct.acquisition.scanner import Scanner
-    from nct.physics.projector import fbp_frames
+    from nct.physics.fbp import fbp_frames
     from nct.scenes.phantoms import CircleConf, build_phantom
     from nct.scenes.simulate import simulate
 
@@ -164,41 +143,6 @@ def test_a_nodule_in_a_lung_in_a_body_nests_in_the_lung_alone():
     np.testing.assert_allclose(seg.intensities[order], [1.0, -0.75, 1.75], atol=0.05)
     for k, truth in zip(order, (body, lung, nodule)):
         assert dice(seg.masks[:, k], np.stack([truth] * 4)).min() > 0.97
-
-
-def test_one_dimensional_labels_are_those_of_the_mixture():
-    """predict_1d (used for the million pixels of a run) labels as GaussianMixture.predict does,
-    chunked or not, on overlapping classes where the boundaries matter."""
-    from sklearn.mixture import GaussianMixture
-
-    images, _ = two_object_frames(noise=0.2)
-    values = images.reshape(-1)
-    gmm = GaussianMixture(6, n_init=2, random_state=0).fit(values[::3, None].astype(np.float64))
-    expected = gmm.predict(values[:, None].astype(np.float64))
-    assert len(np.unique(expected)) >= 4
-    np.testing.assert_array_equal(predict_1d(gmm, values), expected)
-    np.testing.assert_array_equal(predict_1d(gmm, values, chunk=1000), expected)
-
-
-def test_a_broad_class_on_another_peak_stands_for_the_pixels_it_claims():
-    """A mixture class whose mean sits under a sharp class's peak (a small nodule's few pixels taken
-    by a broad class centred on the body's level) claims the median of its pixels as its level, and
-    the judge's choices offer both; classes that claim their own mean keep it."""
-    from sklearn.mixture import GaussianMixture
-
-    rng = np.random.default_rng(0)
-    values = np.concatenate([0.01 * rng.standard_normal(5000), 1 + 0.01 * rng.standard_normal(5000),
-                             2 + 0.01 * rng.standard_normal(50)])
-    gmm = GaussianMixture(3)
-    gmm.means_ = np.array([[0.0], [1.0], [1.01]])
-    gmm.covariances_ = np.array([0.01, 0.01, 0.5]).reshape(3, 1, 1) ** 2
-    gmm.weights_ = np.array([0.5, 0.49, 0.01])
-    labels = predict_1d(gmm, values)
-    assert predict_1d(gmm, np.array([1.01]))[0] == 1 and (labels[-50:] == 2).all()
-    claimed = claimed_levels(gmm, values, labels)
-    np.testing.assert_allclose(claimed, [0.0, 1.0, 2.0], atol=0.01)
-    classes = MixtureClasses(gmm.means_[:, 0], np.array([0.01, 0.01, 0.5]), np.bincount(labels), 0, 0.5, claimed)
-    assert sorted(c[1] for c in class_choices(classes, 1)) == [1.0, 1.01, claimed[2]]
 
 
 def test_each_candidate_is_judged_once():

@@ -18,13 +18,8 @@ from nct.fit.problem import prepare
 from nct.init.segmentation import Segmentation, segmentations
 from nct.init.starts import find_starts
 from nct.method.reconstruct import reconstruct
-from nct.scenes.phantoms import (
-    CircleConf,
-    ComposedConf,
-    EllipseConf,
-    Signal,
-    build_phantom,
-)
+from nct.scenes.phantoms import CircleConf, ComposedConf, build_phantom
+from nct.scenes.signals import EllipseConf, Signal
 from nct.scenes.simulate import simulate
 from tests.conftest import INIT, MODEL, NO_BACKGROUND, OPTIM, TRAINER
 

@@ -22,9 +22,10 @@ from nct.fit.problem import heldout_standard_error, rotations_since_start, split
 from nct.fit.render import project_frames
 from nct.init.conf import InitConf
 from nct.method.reconstruct import reconstruct
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 from nct.run.metrics import frame_metrics
-from nct.scenes.phantoms import CircleConf, EllipseConf, Signal, build_phantom
+from nct.scenes.phantoms import CircleConf, build_phantom
+from nct.scenes.signals import EllipseConf, Signal
 from nct.scenes.simulate import add_poisson_noise, simulate
 from nct.select.conf import SelectionConf
 from tests.conftest import (

@@ -10,8 +10,9 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.moments.compensation import compensated_frames, focused_path
 from nct.moments.orientation import orientation_path
 from nct.moments.trajectory import centroid_projections, fit_trajectory
-from nct.physics.projector import fbp_frames
-from nct.scenes.phantoms import ComposedConf, EllipseConf, Signal, build_phantom
+from nct.physics.fbp import fbp_frames
+from nct.scenes.phantoms import ComposedConf, build_phantom
+from nct.scenes.signals import EllipseConf, Signal
 from nct.scenes.simulate import simulate
 from tests.conftest import circle, orbit, still
 

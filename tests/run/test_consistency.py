@@ -8,7 +8,7 @@ import pytest
 
 from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid, Scanner
-from nct.run.config import SuspectConf
+from nct.run.conf import SuspectConf
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.scenes.phantoms import ComposedConf, build_phantom
 from nct.scenes.simulate import simulate

@@ -10,7 +10,7 @@ import pytest
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.fit.conf import HeldoutConf
 from nct.physics.conf import FBPConf
-from nct.run.config import SuspectConf
+from nct.run.conf import SuspectConf
 from nct.run.suspect import (
     HeldoutMisfits,
     heldout_misfits,

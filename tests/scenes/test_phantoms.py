@@ -15,14 +15,13 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.scenes.phantoms import (
     CircleConf,
     ComposedConf,
-    EllipseConf,
     HeartConf,
     LettersConf,
-    Signal,
     StaticConf,
     build_phantom,
     heart_waveform,
 )
+from nct.scenes.signals import EllipseConf, Signal
 
 T_ROT = 0.25
 

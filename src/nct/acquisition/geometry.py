@@ -76,6 +76,17 @@ class Geometry(ABC):
         return 1.0
 
     @property
+    @abstractmethod
+    def is_parallel(self) -> bool:
+        """Whether every view's rays are parallel: a view then sees the whole field at its own instant, and
+        its moments are the mass's there (a fan view rebinned onto parallel rays mixes instants)."""
+
+    @abstractmethod
+    def check_source_outside(self, radius: float, what: str) -> None:
+        """Refuse (``ValueError`` naming ``source_distance``) a source within ``radius`` of the axis, ``what``
+        that radius is (parallel rays come from no source: nothing to refuse)."""
+
+    @property
     def field_radius(self) -> float:
         """Radius of the disc about the axis that a full turn of views covers: the largest ray offset |σ|."""
         _, sigma = self.lines(np.zeros(1), self.bin_edges)
@@ -147,6 +158,13 @@ class ParallelGeometry(Geometry):
     def __post_init__(self) -> None:
         self._check_detector()
 
+    @property
+    def is_parallel(self) -> bool:
+        return True
+
+    def check_source_outside(self, radius: float, what: str) -> None:
+        return None
+
     def lines(self, angles: Array, u: Array) -> tuple[Array, Array]:
         return angles[:, None], u[None, :]
 
@@ -202,6 +220,15 @@ class FanGeometry(Geometry):
     @property
     def magnification(self) -> float:
         return self.source_to_detector / self.source_distance
+
+    @property
+    def is_parallel(self) -> bool:
+        return False
+
+    def check_source_outside(self, radius: float, what: str) -> None:
+        if not self.source_distance > radius:
+            raise ValueError(f"source_distance must exceed {what} {radius:.4g} (the source must lie outside the "
+                             f"field of view), got {self.source_distance}")
 
     def fan_angle(self, u: Array) -> Array:
         """Fan angle γ of the ray at detector coordinate u: [B] -> [B] rad (numpy or torch)."""

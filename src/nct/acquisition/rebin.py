@@ -5,7 +5,7 @@ the measurement of that line: at view angle θ and detector coordinate u given b
 ``geometry.locate``, or, half a turn away, by ``locate(φ ± π, −σ)``. Of those inside the
 acquired angles the one nearest in angle (so in time) is interpolated bilinearly in (view, bin).
 The parallel views keep the original views' angles and times, so FBP windows by time and
-angle (`projector.fbp_frames`) work unchanged, and a short scan (180° plus the fan angle) gives
+angle (`physics/fbp.py` `fbp_frames`) work unchanged, and a short scan (180° plus the fan angle) gives
 complete 180° windows without redundancy weights.
 """
 
@@ -34,7 +34,7 @@ def to_parallel(sino: Sinogram) -> Sinogram:
     first and last views, when it covers less than a turn plus the fan angle) take the nearest view.
     """
     geometry = sino.geometry
-    if isinstance(geometry, ParallelGeometry) and geometry.detector_offset == 0:
+    if geometry.is_parallel and geometry.detector_offset == 0:
         return sino
     target = parallel_geometry_for(geometry)
     theta = _monotonic(np.unwrap(np.asarray(sino.angles, dtype=np.float64)))

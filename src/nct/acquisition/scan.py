@@ -1,7 +1,7 @@
 """The measured data as one typed value: the sinogram, and the grid and times of the frames to reconstruct.
 
 ``Scan(sinogram, angles, times, bin_spacing=...)`` takes arrays (any real dtype, lists too) and checks
-them as a sinogram file's keys are checked (`nct.acquisition.io.parse`), each error one line naming the
+them as a sinogram file's keys are checked (`nct.acquisition.keys.parse`), each error one line naming the
 argument; ``Scan.from_file`` reads a file (`nct.acquisition.io.load_sinogram`). `output_grid` is the one
 place that turns a sinogram and the requested size into the output grid and frame times, whichever way
 the data came (an array, a file, a simulation).
@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from nct.acquisition.geometry import Geometry
-from nct.acquisition.io import load_sinogram, parse
+from nct.acquisition.io import load_sinogram
+from nct.acquisition.keys import parse
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram, Truth
 from nct.acquisition.times import TIMES_UNITS

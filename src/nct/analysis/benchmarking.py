@@ -3,7 +3,8 @@
 Shared by ``benchmarks/speed_accuracy.py`` and ``benchmarks/stability.py``. A job is
 ``python -m nct.cli.main <overrides> seed=<s> hydra.run.dir=<dir>``; its wall time and peak memory are
 the child's own (``os.wait4`` rusage), its scores come from the run folder (docs/ARCHITECTURE.md).
-A run that failed, diverged, timed out or scored NaN is a failure, never a result.
+A run that failed, diverged, timed out or scored NaN is a failure, never a result (what the benchmarks
+make of the records: ``benchmark_stats.py``).
 """
 
 from __future__ import annotations
@@ -17,15 +18,13 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from nct.run.metrics import DICE_GOOD
 from nct.run.outcome import FINISHED, UNFINISHED, read_outcome
 
 BENCH_FILE = "bench.json"
@@ -266,93 +265,3 @@ def scaled_steps(defaults: DictConfig, factor: float) -> tuple[str, ...]:
     decay interval) of ``defaults.optim`` by ``factor``: the same recipe, compressed or stretched."""
     t = defaults.optim
     return tuple(f"optim.{k}={max(1, round(t[k] * factor))}" for k in STAGE_STEPS + SCHEDULE_STEPS if k in t)
-
-
-@dataclass(frozen=True)
-class SeedStats:
-    """Dice over seeds, each failed run counted as 0: n runs, n_failed, median, quartiles, range."""
-
-    n: int
-    n_failed: int
-    median: float
-    q25: float
-    q75: float
-    min: float
-    max: float
-
-
-def seed_stats(records: Sequence[Record]) -> SeedStats:
-    """Median and spread of Dice over ``records`` (one per seed); a failure scores Dice 0."""
-    if not records:
-        raise ValueError("seed_stats needs at least one record")
-    dice = np.array([0.0 if r.failed else r.dice for r in records])
-    q = np.percentile(dice, [0, 25, 50, 75, 100])
-    return SeedStats(len(records), sum(r.failed for r in records), float(q[2]), float(q[1]), float(q[3]),
-                     float(q[0]), float(q[4]))
-
-
-def median_ok(records: Sequence[Record], attr: str) -> float:
-    """Median of ``attr`` over the records that succeeded (NaN if none did)."""
-    values = [getattr(r, attr) for r in records if not r.failed]
-    values = [v for v in values if math.isfinite(v)]
-    return float(np.median(values)) if values else math.nan
-
-
-def group(records: Iterable[Record], keys: Sequence[str]) -> dict[tuple, list[Record]]:
-    """Records grouped by the values of label ``keys`` (and ``method`` if named), in first-seen order."""
-    groups: dict[tuple, list[Record]] = {}
-    for r in records:
-        labels = {**r.job.labels, "method": r.job.method}
-        groups.setdefault(tuple(labels[k] for k in keys), []).append(r)
-    return groups
-
-
-def pareto_front(times: Sequence[float], scores: Sequence[float]) -> list[int]:
-    """Indices of the points no other point beats (time no larger and score no smaller), by time.
-
-    Of points with equal time and score only the first is kept; NaN points are never on the front.
-    """
-    order = sorted((i for i in range(len(times)) if math.isfinite(times[i]) and math.isfinite(scores[i])),
-                   key=lambda i: (times[i], -scores[i]))
-    front: list[int] = []
-    for i in order:
-        if not front or scores[i] > scores[front[-1]]:
-            front.append(i)
-    return front
-
-
-def breakdown_point(settings: Sequence, medians: Sequence[float], threshold: float = DICE_GOOD) -> object | None:
-    """The first setting (``settings`` ordered from easy to hard) whose median Dice is below ``threshold``
-    (NaN counts as below); None when the method holds up at every setting."""
-    if len(settings) != len(medians):
-        raise ValueError(f"settings ({len(settings)}) and medians ({len(medians)}) differ in length")
-    for setting, median in zip(settings, medians):
-        if not median >= threshold:
-            return setting
-    return None
-
-
-def extrapolate_time(run_time_s: float, stages: dict, steps: int, short_stages: dict | None = None) -> float:
-    """Run time if every optimisation stage ran ``steps`` steps; the time outside the stages (data, FBP,
-    segmentation, metrics) is kept as measured. A stage stopped before its ``planned_steps`` (a
-    race lost) is scaled to the same share of ``steps``.
-
-    stages: metrics.json ``stages``, {name: {"steps", "planned_steps", "wall_time_s", ...}}. short_stages: the same of
-    a run with fewer steps and otherwise the same settings: each stage's time per step is then the
-    slope between the two, which leaves its fixed set-up cost out; without it (or where the slope is
-    not positive) stage time / steps, an upper bound. NaN without usable stages.
-    """
-    timed = {k: s for k, s in stages.items() if isinstance(s, dict) and s.get("steps") and "wall_time_s" in s}
-    if not timed or not math.isfinite(run_time_s):
-        return math.nan
-    total = run_time_s
-    for name, stage in timed.items():
-        n, t = int(stage["steps"]), float(stage["wall_time_s"])
-        per_step, fixed = t / n, 0.0
-        short = (short_stages or {}).get(name) or {}
-        if short.get("wall_time_s") is not None and 0 <= int(short.get("steps", n)) < n:
-            slope = (t - float(short["wall_time_s"])) / (n - int(short["steps"]))
-            if slope > 0:
-                per_step, fixed = slope, t - slope * n
-        total += fixed + per_step * steps * n / int(stage.get("planned_steps", n)) - t
-    return total

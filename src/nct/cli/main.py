@@ -32,8 +32,9 @@ from omegaconf.errors import (
 
 from nct.cli.resume import resume_arguments
 from nct.errors import InputError, MethodError
-from nct.run.config import CONFIG_MODULE, describe, register_configs, unknown_key
 from nct.run.phases import Instant
+from nct.run.schema import CONFIG_MODULE, register_configs
+from nct.run.suggest import describe, unknown_key
 
 # Hydra plugins that optional extras install: the config Hydra misses without them -> the extra.
 PLUGIN_EXTRAS = {"hydra/sweeper/optuna": "optuna", "hydra/launcher/submitit": "slurm", "hydra/launcher/ray": "ray"}

@@ -1,5 +1,5 @@
 """The neural field's settings (config group ``model``): a plain dataclass without torch, so that parsing
-a config (``nct.run.config``) stays cheap."""
+a config (``nct.run.config.validate``) stays cheap."""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 ``trainer``: Lightning's own Trainer settings (``trainer.run_stage``); ``optim``: steps and the
 optimiser (the stages and the passes of ``method.reconstruct``); ``render``: the occupancy and
 its projection (``SinogramFit``); ``heldout``: the views held out of every fit; ``loss``: the loss weights. Plain dataclasses
-without torch, so that parsing a config (``nct.run.config``) stays cheap.
+without torch, so that parsing a config (``nct.run.config.validate``) stays cheap.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ from nct.moments.compensation import compensated_frames
 from nct.moments.orientation import frame_coverage, orientation_path, turning_part
 from nct.moments.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 
 
 @dataclass(frozen=True)

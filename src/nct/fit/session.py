@@ -20,18 +20,11 @@ import torch
 
 from nct.fields.base import SpaceTimeField
 from nct.fields.sightings import Sightings
+from nct.fit.callbacks import HeldoutStop, MinLossStop
 from nct.fit.conf import OptimConf, RenderConf, TrainerConf
 from nct.fit.problem import Problem
 from nct.fit.stages import HeldoutHistory, InitFit, SinogramFit
-from nct.fit.trainer import (
-    HeldoutStop,
-    IndexDataModule,
-    MinLossStop,
-    RunClock,
-    Snapshot,
-    SnapshotLog,
-    run_stage,
-)
+from nct.fit.trainer import IndexDataModule, RunClock, Snapshot, SnapshotLog, run_stage
 
 if TYPE_CHECKING:
     from nct.init.segmentation import Segmentation

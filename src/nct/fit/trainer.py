@@ -1,16 +1,15 @@
-"""Running one optimisation stage in its own Lightning Trainer: the index data it is served,
-the callbacks (early stops, snapshots for the Dice-against-time curve, divergence check,
-TensorBoard images), its logger, checkpoint and resume.
+"""Running one optimisation stage in its own Lightning Trainer: the index data it is served, its
+callbacks (``callbacks.py``; here the snapshots of the run's Dice-against-time curve), its logger,
+checkpoint and resume.
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import math
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,17 +23,11 @@ from lightning.pytorch.utilities.warnings import PossibleUserWarning
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset
 
-from nct.errors import DivergenceError, InputError
+from nct.errors import InputError
+from nct.fit.callbacks import DivergenceCheck, ImageLog
 from nct.fit.conf import LOGGERS, TrainerConf
 from nct.fit.progress import StageBar, StageLog, log_stage, show_bar
-from nct.fit.render import intensity
-from nct.fit.stages import (
-    FieldStage,
-    HeldoutHistory,
-    InitFit,
-    SinogramFit,
-    logging_step,
-)
+from nct.fit.stages import FieldStage
 
 log = logging.getLogger(__name__)
 RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
@@ -71,29 +64,6 @@ class IndexDataModule(L.LightningDataModule):
 
     def val_dataloader(self) -> DataLoader:
         return DataLoader(self.held, batch_size=None)
-
-
-class MinLossStop(Callback):
-    """Stop SinogramFit once its sinogram loss falls below ``min_loss`` (Algorithm 4's minLoss)."""
-
-    def __init__(self, min_loss: float) -> None:
-        self.min_loss = min_loss
-
-    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
-        if self.min_loss > 0 and float(outputs["sinogram"]) < self.min_loss:
-            trainer.should_stop = True
-
-
-class HeldoutStop(Callback):
-    """Stop SinogramFit after a validation once ``stops`` says so from its held-out history
-    [(step, loss)] so far (the tournament's rule, select/tournament.py)."""
-
-    def __init__(self, stops: Callable[[HeldoutHistory], bool]) -> None:
-        self.stops = stops
-
-    def on_validation_end(self, trainer, pl_module) -> None:
-        if self.stops(pl_module.heldout_history):
-            trainer.should_stop = True
 
 
 class RunClock:
@@ -149,81 +119,6 @@ class SnapshotLog(Callback):
             self.take(trainer, pl_module)
 
 
-class DivergenceCheck(Callback):
-    """Raise DivergenceError on a non-finite loss or one above ``factor`` x the stage's first loss.
-    Checked on the Trainer's logging steps and the last: reading a loss makes the host wait for
-    the device, so not every step."""
-
-    def __init__(self, stage: str, factor: float) -> None:
-        self.stage, self.factor, self.first = stage, factor, None
-
-    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
-        loss = (outputs["loss"] if isinstance(outputs, dict) else outputs).detach()
-        self.first = loss if self.first is None else self.first
-        if not logging_step(trainer, batch_idx):
-            return
-        loss, first = float(loss), float(self.first)
-        if not math.isfinite(loss) or loss > self.factor * first:
-            lr = trainer.optimizers[0].param_groups[0]["lr"]
-            raise DivergenceError(
-                f"stage '{self.stage}' diverged at step {trainer.global_step}: loss {loss:.4g} (first step "
-                f"{first:.4g}, limit {self.factor:g}x) at learning rate {lr:.3g}; "
-                "lower optim.lr or raise optim.warmup_steps"
-            )
-
-
-def evenly(times: Tensor, n: int) -> Tensor:
-    """Indices of n evenly spaced entries of ``times`` [T]."""
-    return torch.linspace(0, times.shape[0] - 1, n).round().long().to(times.device)
-
-
-@torch.no_grad()
-def init_preview(stage: InitFit, n: int) -> Tensor:
-    """Target | fitted SDF > 0 at n evenly spaced target times: [2, n, H, W] in [0, 1]."""
-    pick = evenly(stage.times, n)
-    sdf = stage.grid_sdf(stage.times[pick])
-    return torch.stack([(stage.targets[pick] > 0).any(1), (sdf > 0).any(1)]).float()
-
-
-@torch.no_grad()
-def fit_preview(stage: SinogramFit, n: int) -> Tensor:
-    """Intensity frames at n evenly spaced view times, at the current band: [1, n, H, W]."""
-    sdf = stage.grid_sdf(stage.times[evenly(stage.times, n)])
-    return intensity(sdf, stage.intensities, stage.band(), stage.render_conf.mu)[None]
-
-
-@torch.no_grad()
-def fit_residual(stage: SinogramFit, n: int) -> Tensor:
-    """Rendered minus measured sinogram at n evenly spaced views, over the data's max: [n, n_bins]."""
-    pick = evenly(stage.times, n)
-    sdf = stage.grid_sdf(stage.times[pick])
-    return (stage.render(sdf, pick, stage.band()) - stage.values[pick]) / stage.values.abs().max().clamp_min(1e-12)
-
-
-class ImageLog(Callback):
-    """Every ``every`` steps (and at the end), frames over time and (SinogramFit) the sinogram
-    residual to TensorBoard, rendered from the stage's field; the stages only optimise."""
-
-    def __init__(self, stage: str, every: int, n_frames: int = 8, n_views: int = 90) -> None:
-        self.stage, self.every, self.n_frames, self.n_views = stage, every, n_frames, n_views
-
-    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
-        if trainer.global_step % self.every == 0 or trainer.global_step >= trainer.max_steps:
-            self.log_images(trainer, pl_module)
-
-    def log_images(self, trainer, pl_module: FieldStage) -> None:
-        writer = trainer.logger.experiment
-        fitting = isinstance(pl_module, SinogramFit)
-        rows = (fit_preview if fitting else init_preview)(pl_module, self.n_frames)  # [R, n, H, W]
-        strip = torch.cat([torch.cat(list(row), dim=1) for row in rows], dim=0)
-        top = float(strip.max().clamp_min(1e-6))
-        writer.add_image(f"{self.stage}/frames", (strip / top).clamp(0, 1)[None], trainer.global_step)
-        if fitting:
-            res = fit_residual(pl_module, self.n_views)
-            writer.add_image(f"{self.stage}/sinogram_residual", (0.5 + 0.5 * res).clamp(0, 1)[None],
-                             trainer.global_step)
-
-
 def check_accelerator(accelerator: str) -> None:
     """Refuse a GPU accelerator that torch cannot use, naming the fix (Lightning would fail deep inside)."""
     if accelerator in ("gpu", "cuda") and not (torch.cuda.is_available() or torch.backends.mps.is_available()):
@@ -269,28 +164,10 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
     folder = Path(log_dir) / "checkpoints" / name if log_dir is not None else None
     if resume and folder is not None and (folder / RECORD).is_file():
-        weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
-        try:
-            module.load_state_dict(weights)
-        except RuntimeError as err:
-            detail = str(err).splitlines()[1].strip() if len(str(err).splitlines()) > 1 else str(err)
-            raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
-                             f"({detail}); rerun it in a new folder") from None
-        log.info("resume: stage %s loaded from %s", name, folder)
-        record = json.loads((folder / RECORD).read_text())
-        module.heldout_history = [(int(step), float(loss)) for step, loss in record.get("heldout_history", [])]
-        return record | {"resumed": True}
+        return load_stage(module, folder, name)
     every = check_every if data.held else 0
-    callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
     bar = show_bar(conf.progress_bar)
-    callbacks.append(StageBar(name) if bar else StageLog(name, conf.progress_every_s))
-    stage_logger: TensorBoardLogger | CSVLogger | bool = False
-    if log_dir is not None and logger == "tensorboard":
-        stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
-        callbacks += [LearningRateMonitor("step"), ImageLog(name, conf.image_every_n_steps)]
-    elif log_dir is not None and logger == "csv":
-        stage_logger = CSVLogger(str(log_dir), name="csv", version=name)
-        callbacks.append(LearningRateMonitor("step"))
+    stage_logger, callbacks = stage_logging(module, name, conf, log_dir, logger, extra_callbacks, bar)
     with quiet_lightning():
         trainer = L.Trainer(
             accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
@@ -303,16 +180,57 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
                     val_dataloaders=data.val_dataloader() if every else None)
         if folder is not None:
             trainer.save_checkpoint(folder / "last.ckpt")
+    result = stage_record(trainer, module, steps, start)
+    if folder is not None:
+        (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
+    if not bar:
+        log_stage(name, result)
+    return result
+
+
+def load_stage(module: FieldStage, folder: Path, name: str) -> dict:
+    """A finished stage ``name`` resumed: ``module`` loaded from its checkpoint in ``folder`` (`InputError`
+    where it does not fit this version's model), its held-out history and record as it ran."""
+    weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
+    try:
+        module.load_state_dict(weights)
+    except RuntimeError as err:
+        detail = str(err).splitlines()[1].strip() if len(str(err).splitlines()) > 1 else str(err)
+        raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
+                         f"({detail}); rerun it in a new folder") from None
+    log.info("resume: stage %s loaded from %s", name, folder)
+    record = json.loads((folder / RECORD).read_text())
+    module.heldout_history = [(int(step), float(loss)) for step, loss in record.get("heldout_history", [])]
+    return record | {"resumed": True}
+
+
+def stage_logging(module: FieldStage, name: str, conf: TrainerConf, log_dir: Path | None, logger: str,
+                  extra_callbacks: tuple[Callback, ...], bar: bool
+                  ) -> tuple[TensorBoardLogger | CSVLogger | bool, list[Callback]]:
+    """Stage ``name``'s logger (False: none) and callbacks, in the order Lightning calls them: the
+    divergence check, ``extra_callbacks``, the progress bar (``bar``) or lines, then the learning
+    rate and (TensorBoard) the images."""
+    callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
+    callbacks.append(StageBar(name) if bar else StageLog(name, conf.progress_every_s))
+    stage_logger: TensorBoardLogger | CSVLogger | bool = False
+    if log_dir is not None and logger == "tensorboard":
+        stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
+        callbacks += [LearningRateMonitor("step"), ImageLog(name, conf.image_every_n_steps)]
+    elif log_dir is not None and logger == "csv":
+        stage_logger = CSVLogger(str(log_dir), name="csv", version=name)
+        callbacks.append(LearningRateMonitor("step"))
+    return stage_logger, callbacks
+
+
+def stage_record(trainer: L.Trainer, module: FieldStage, steps: int, start: float) -> dict:
+    """What a finished stage's ``stage.json`` holds: its steps (and ``steps`` planned), last losses, wall
+    time since ``start`` and held-out history."""
     losses = {k.removeprefix("train/"): float(v) for k, v in trainer.callback_metrics.items()
               if k.startswith(("train/", "val/"))}
     result = {"steps": int(trainer.global_step), "planned_steps": steps, "losses": losses,
               "wall_time_s": time.perf_counter() - start}
     if module.heldout_history:
         result["heldout_history"] = [list(point) for point in module.heldout_history]
-    if folder is not None:
-        (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
-    if not bar:
-        log_stage(name, result)
     return result
 
 

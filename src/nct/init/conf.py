@@ -1,5 +1,5 @@
 """The initialisation's settings (config groups ``init`` and ``background``): plain dataclasses without
-torch, so that parsing a config (``nct.run.config``) stays cheap."""
+torch, so that parsing a config (``nct.run.config.validate``) stays cheap."""
 
 from __future__ import annotations
 

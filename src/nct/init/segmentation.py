@@ -1,28 +1,10 @@
-"""Algorithm 1 and a robust fallback: find the K objects' levels and masks in FBP frames.
+"""Find the K objects' levels and masks in FBP frames: Algorithm 1 (the paper's Gaussian mixture,
+``mixture.py``) and, where it cannot separate K levels, a robust fallback (multi-level Otsu at coarser
+scales, ``otsu.py``).
 
-Algorithm 1 (the paper's): a Gaussian mixture over intensities with K + kappa + 1 classes fitted
-on a random share of the frames. The class with the most pixels is the background. Objects are
-brighter than the background in CT: going through the brighter classes by peak height times
-contrast (pixels / spread x (mean - background mean)), a class becomes the next object unless
-its mean lies within SAME_LEVEL standard deviations (of the broader class) of an object already
-found or of the background (one level split in two by the mixture), or lies below the
-foreground threshold (background ripple or noise; see `foreground_threshold`). The paper keeps
-the classes with most pixels; on FBP frames of moving objects that picks streak and
-partial-volume classes.
-
-Where the mixture cannot separate K levels (a small or fast object seen in few pixels of the
-frames it was fitted on, a faint object beside a bright one, noise), the fallback route splits
-the foreground pixels of every frame (above `foreground_threshold`) into K classes by
-multi-level Otsu (on a histogram coarse enough to bound its cost: `otsu_bins`) and takes each
-class's median as its level; where noise hides every object at the pixel scale, it looks again
-on frames smoothed at coarser scales (SMOOTHING_PX). Only when nothing stands out of the
-background at any scale does segmentation fail, with `NoObjectError`.
-
-With a judge (levels.py: how well the masks explain the sinogram), the rule above only adds one
+With a judge (``judge.py``: how well the masks explain the sinogram), Algorithm 1's rule only adds one
 candidate: every choice of K of the mixture's classes above the foreground threshold, and the
-fallback's levels, is judged, and the best explains the views; the judge also gives a(k). A class
-offers its mean as its level and, where a sharper class claims the pixels there, the median of
-the pixels it claims (`claimed_levels`: a small object's few pixels in a broad class).
+fallback's levels, is judged, and the best explains the views; the judge also gives a(k).
 
 Each pixel then goes to the nearest of these levels, so the buffer classes (partial volume,
 streaks) shape the levels' estimate but never claim pixels, and masks are thresholds between levels.
@@ -32,26 +14,16 @@ mask is filled through it.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from itertools import combinations, pairwise, product
 
 import numpy as np
-from scipy.ndimage import binary_fill_holes, gaussian_filter
-from skimage.filters import threshold_multiotsu
-from sklearn.mixture import GaussianMixture
-from threadpoolctl import threadpool_limits
+from scipy.ndimage import binary_fill_holes
 
 from nct.errors import NoObjectError
 from nct.init.conf import INIT_ROUTES
-
-SAME_LEVEL = 3.0
-NOISE_SIGMAS = 4.0  # foreground: this many noise deviations above the background ...
-MIN_CONTRAST = 0.05  # ... and at least this share of the brightest contrast (ripple of noiseless FBP)
-SMOOTHING_PX = (0.0, 1.0, 2.0, 4.0)  # scales (Gaussian sigma, pixels) at which the fallback looks for objects
-OTSU_BINS = 256  # skimage's default histogram for multi-level Otsu ...
-OTSU_WORK = 2e7  # ... made coarser where classes x threshold combinations would exceed this (about 0.15 s)
+from nct.init.mixture import algorithm1_levels, class_choices, mixture_classes
+from nct.init.otsu import smoothed_until_found
 
 
 @dataclass(frozen=True)
@@ -179,163 +151,3 @@ def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]
             masks[:, k] &= filled[j]
         masks[:, j] |= masks[:, k] & filled[j]
     return masks, intensities
-
-
-def smoothed_until_found(frames: np.ndarray, n_objects: int) -> tuple[float, np.ndarray, np.ndarray]:
-    """The finest of SMOOTHING_PX (Gaussian, in space only) at which K objects stand out of the
-    noise, the frames smoothed at that scale and their Otsu levels [K + 1]: noise too heavy for
-    single pixels can still show an object at a coarser scale. `NoObjectError` (the coarsest
-    scale's) when none holds them."""
-    sigma = noise_sigma(frames)
-    for px in SMOOTHING_PX:
-        smooth = gaussian_filter(frames, (0, px, px)) if px else frames
-        try:
-            return px, smooth, otsu_levels(smooth, n_objects, smoothed_noise(sigma, px))
-        except NoObjectError as err:
-            failure = err
-    raise failure
-
-
-def smoothed_noise(sigma: float, px: float) -> float:
-    """Noise deviation left after a Gaussian of ``px`` pixels, for white noise of deviation
-    ``sigma`` (FBP noise, ramp-filtered, loses more: this errs high, so on the safe side).
-    Measured on the smoothed frames themselves it would read far too low: their neighbours agree."""
-    return sigma if px == 0 else sigma / (2 * np.sqrt(np.pi) * px)
-
-
-def noise_sigma(frames: np.ndarray) -> float:
-    """Robust standard deviation of the pixel noise: from neighbouring pixels' differences
-    (edges are a small share of pixels, so the median ignores them)."""
-    diff = np.diff(frames, axis=-1)
-    return float(1.4826 * np.median(np.abs(diff - np.median(diff))) / np.sqrt(2))
-
-
-def foreground_threshold(frames: np.ndarray, background: float, noise: float | None = None) -> float:
-    """The lowest level an object may have: NOISE_SIGMAS noise deviations (``noise``, default
-    measured on ``frames``) above ``background`` and MIN_CONTRAST of the brightest contrast (the
-    99.9th percentile of the frames)."""
-    peak = float(np.percentile(frames, 99.9))
-    noise = noise_sigma(frames) if noise is None else noise
-    return background + max(NOISE_SIGMAS * noise, MIN_CONTRAST * (peak - background))
-
-
-@dataclass(frozen=True)
-class MixtureClasses:
-    """Algorithm 1's Gaussian mixture over the frames' pixels: per class its mean, spread, pixel
-    count and claimed level (`claimed_levels`) [C]; ``background``: the class with most pixels;
-    ``lowest``: the foreground threshold."""
-
-    means: np.ndarray
-    spread: np.ndarray
-    count: np.ndarray
-    background: int
-    lowest: float
-    claimed: np.ndarray
-
-    @property
-    def score(self) -> np.ndarray:
-        """Peak height times contrast: a true level is a sharp histogram peak (many pixels, small
-        spread); partial-volume and streak classes are broad."""
-        return self.count / self.spread * (self.means - self.means[self.background])
-
-
-def mixture_classes(frames: np.ndarray, n_objects: int, rng: np.random.Generator, kappa: int,
-                    share: float) -> MixtureClasses:
-    """Fit K + kappa + 1 Gaussian classes to ``share`` of the frames (at least one), drawn with ``rng``."""
-    n_fit = max(1, int(round(share * len(frames))))
-    sample = frames[rng.choice(len(frames), size=n_fit, replace=False)].reshape(-1)
-    flat = frames.reshape(-1)
-    n_classes = n_objects + kappa + 1
-    gmm = GaussianMixture(n_classes, n_init=3, random_state=int(rng.integers(2**31 - 1)))
-    with threadpool_limits(1):  # one-dimensional EM: BLAS threads on its tiny products cost 2-5x, results equal
-        gmm.fit(sample.reshape(-1, 1).astype(np.float64))
-    labels = predict_1d(gmm, flat)
-    means = gmm.means_[:, 0]
-    count = np.bincount(labels, minlength=n_classes)
-    background = int(np.argmax(count))
-    return MixtureClasses(means, np.sqrt(gmm.covariances_.reshape(n_classes)), count, background,
-                          foreground_threshold(frames, float(means[background])), claimed_levels(gmm, flat, labels))
-
-
-def claimed_levels(gmm: GaussianMixture, values: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Each class's level [C]: its mean, or, where a sharper class claims the pixels at its mean, the
-    median of the pixels it does claim. A small object's few pixels (a nodule in a body: 17 a frame)
-    can fall to a broad class whose mean sits on the body's peak; where its pixels are is the
-    nodule's level, which no choice of the classes' means holds."""
-    levels = gmm.means_[:, 0].copy()
-    for c in np.flatnonzero(predict_1d(gmm, levels) != np.arange(len(levels))):
-        claimed = values[labels == c]
-        if claimed.size:
-            levels[c] = float(np.median(claimed))
-    return levels
-
-
-def predict_1d(gmm: GaussianMixture, values: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
-    """``gmm.predict`` for one-dimensional ``values`` [N]: the class of highest weighted log
-    density, computed directly; the same labels as ``predict``, about 8x faster on the million
-    pixels of the default run, whose general path costs about a second there."""
-    var = gmm.covariances_.reshape(-1)
-    offset = np.log(gmm.weights_) - 0.5 * np.log(2 * np.pi * var)
-    mean = gmm.means_[:, 0]
-    parts = [np.argmax(offset - 0.5 * (part.astype(np.float64)[:, None] - mean) ** 2 / var, axis=1)
-             for part in np.array_split(values, max(1, -(-len(values) // chunk)))]
-    return np.concatenate(parts)
-
-
-def algorithm1_levels(classes: MixtureClasses, n_objects: int) -> np.ndarray | None:
-    """Algorithm 1: background and K object levels [K + 1] ordered by peak x contrast, or None
-    when the mixture does not hold K distinct levels above the foreground threshold."""
-    means, spread = classes.means, classes.spread
-
-    def same(a: int, b: int) -> bool:
-        return abs(means[a] - means[b]) <= SAME_LEVEL * max(spread[a], spread[b])
-
-    found: list[int] = []
-    for c in np.argsort(-classes.score):
-        distinct = not any(same(c, o) for o in [classes.background, *found])
-        if means[c] >= classes.lowest and distinct and len(found) < n_objects:
-            found.append(int(c))
-    return means[[classes.background, *found]] if len(found) == n_objects else None
-
-
-def class_choices(classes: MixtureClasses, n_objects: int) -> list[np.ndarray]:
-    """Every choice of K classes' levels above the foreground threshold as levels [K + 1] (background
-    first); a class whose claimed level differs from its mean offers both."""
-    options = {c: [lv for lv in dict.fromkeys([classes.means[c], classes.claimed[c]]) if lv >= classes.lowest]
-               for c in range(len(classes.means)) if c != classes.background}
-    above = [c for c in options if options[c]]
-    return [np.asarray([classes.means[classes.background], *levels])
-            for chosen in combinations(above, n_objects) for levels in product(*(options[c] for c in chosen))]
-
-
-def otsu_levels(frames: np.ndarray, n_objects: int, noise: float | None = None) -> np.ndarray:
-    """The fallback: background (the median pixel) and K object levels [K + 1], brightest last,
-    from a multi-level Otsu split of the foreground pixels into K classes (class medians).
-    ``noise``: the frames' noise deviation (default: measured on them)."""
-    background = float(np.median(frames))
-    lowest = foreground_threshold(frames, background, noise)
-    fg = frames[frames > lowest].astype(np.float64)
-    if fg.size < len(frames) or np.unique(fg).size < max(2, n_objects):  # under a pixel a frame: noise
-        raise NoObjectError(
-            f"found no object in the FBP frames: {fg.size} pixels stand out of the background level "
-            f"{background:.4g} (threshold {lowest:.4g}), need n_objects = {n_objects} distinct levels; "
-            "is the sinogram empty, or data.n_objects too large?")
-    try:
-        thresholds = threshold_multiotsu(fg, classes=n_objects, nbins=otsu_bins(n_objects)) if n_objects > 1 else []
-        parts = [fg[(fg > lo) & (fg <= hi)] for lo, hi in pairwise([lowest, *thresholds, np.inf])]
-    except ValueError:  # the histogram holds fewer filled bins than K
-        parts = []
-    if len(parts) < n_objects or any(part.size == 0 for part in parts):
-        raise NoObjectError(f"found fewer than n_objects = {n_objects} distinct levels in the FBP frames' "
-                            f"foreground ({fg.size} pixels above {lowest:.4g})")
-    return np.asarray([background, *(float(np.median(part)) for part in parts)])
-
-
-def otsu_bins(classes: int) -> int:
-    """The finest histogram, up to OTSU_BINS, on which multi-level Otsu into ``classes`` stays within
-    OTSU_WORK: skimage searches every set of thresholds, classes x C(bins - 1, classes - 1) of them
-    (measured about 6 ns each; at 256 bins 4 classes take 0.06 s, 5 classes 6.5 s, 6 classes minutes)."""
-    bins = OTSU_BINS
-    while bins > classes and classes * math.comb(bins - 1, classes - 1) > OTSU_WORK:
-        bins -= 1
-    return bins

@@ -28,7 +28,7 @@ from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.orientation import Orientation
 from nct.moments.trajectory import Trajectory
-from nct.physics.projector import fbp_frames
+from nct.physics.fbp import fbp_frames
 
 # Scales tried for a mover over a static background (the whole mass over the mover's), then refined
 # between the best one's neighbours: a mover down to 1/64 of the mass (the vessel: 1/13).

@@ -23,7 +23,6 @@ from numpy.polynomial.legendre import legval, legvander
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.trajectory import MIN_MASS, centroid_projections
 
@@ -53,7 +52,7 @@ def second_moments(sino: Sinogram) -> np.ndarray:
     """Central second moment of each view, Σ_i (u_i − ū)²·p_i / Σ_i p_i over the bins at detector
     coordinates u_i: [V] float64 (length units²); NaN where the view holds less than MIN_MASS of the
     median view's mass (trajectory.centroid_projections). Parallel beam only (fan: ValueError)."""
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         raise ValueError("second moments are read in parallel beam only")
     values = np.asarray(sino.values, dtype=np.float64)
     u = np.asarray(sino.geometry.bin_positions, dtype=np.float64)
@@ -117,7 +116,7 @@ def turning_part(sino: Sinogram) -> Orientation | None:
     ``part`` set; None in fan beam, with fewer than 5 usable views, where the whole mass's centroid is not
     still (STILL_CENTRE) and where the turn cannot be told from the rest's terms: under PART_TURN degrees
     over the scan, or its frame seen over less than PART_COVERAGE degrees of view angle (`frame_coverage`)."""
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         return None
     if still_centre_misfit(sino) > STILL_CENTRE * sino.geometry.bin_spacing:  # cheap: before the turns' grid
         return None
@@ -140,7 +139,7 @@ def still_centre_misfit(sino: Sinogram) -> float:
 
 def _read(sino: Sinogram, part: bool) -> Orientation | None:
     """`orientation_path` (``part``: `turning_part`) up to its verdict."""
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         return None
     moments = second_moments(sino)
     angles, times = (np.asarray(a, dtype=np.float64) for a in (sino.angles, sino.times))

@@ -26,7 +26,6 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 from threadpoolctl import threadpool_limits
 
-from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.rebin import to_parallel
 from nct.acquisition.sinogram import Sinogram
 
@@ -59,7 +58,7 @@ def centroid_projections(sino: Sinogram) -> np.ndarray:
     (nothing in the field, or noise only) comes back NaN, and `fit_trajectory` skips it. An object
     reaching past the detector's ends gives a wrong moment: the field must hold it in every view.
     """
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         sino = to_parallel(sino)
     values = np.asarray(sino.values, dtype=np.float64)
     mass = values.sum(axis=1)
@@ -73,14 +72,14 @@ def centroid_path(sino: Sinogram) -> Trajectory | None:
     `fit_trajectory`) where it can hold a mover: parallel beam only. A rebinned fan view mixes
     instants within the fan angle; its moments put the circle at 100°/rot 7.5 px off its orbit (the
     fan views' own instants make the source's path an exact answer instead). None in fan beam."""
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         return None
     return fit_trajectory(sino.angles, sino.times, centroid_projections(sino))
 
 
 def view_masses(sino: Sinogram) -> np.ndarray:
     """Each view's total, Σ_i p_i [V] float64 (fan beam rebinned first): the mass in the field at its instant."""
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         sino = to_parallel(sino)
     return np.asarray(sino.values, dtype=np.float64).sum(axis=1)
 

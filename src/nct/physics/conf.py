@@ -1,5 +1,5 @@
-"""Settings of the physics (``fbp``: FBP's filter and window, read by ``projector.fbp_frames``).
-Plain dataclasses without torch, so that parsing a config (``nct.run.config``) stays cheap."""
+"""Settings of the physics (``fbp``: FBP's filter and window, read by ``fbp.fbp_frames``).
+Plain dataclasses without torch, so that parsing a config (``nct.run.config.validate``) stays cheap."""
 
 from __future__ import annotations
 

@@ -24,11 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import legendre
 
-from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.rebin import parallel_geometry_for
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.trajectory import centroid_projections
-from nct.run.config import SuspectConf
+from nct.run.conf import SuspectConf
 
 DEGREES_PER_ROTATION = (1, 2, 3)  # the motion models: polynomials of these degrees per gantry rotation
 MAX_SE = 0.5  # bins: a model whose offset has a larger standard error cannot tell (its motion mimics a constant)
@@ -136,7 +135,7 @@ def check_geometry(sino: Sinogram) -> GeometryCheck | None:
                if 2 * d + 3 < len(tau)] or [0]
     pitch = parallel_geometry_for(sino.geometry).bin_spacing  # the file's pitch at the axis
     offset = _offset(theta, tau, moments / pitch, degrees)
-    if not isinstance(sino.geometry, ParallelGeometry):
+    if not sino.geometry.is_parallel:
         return GeometryCheck(offset, None)
     totals = np.asarray(sino.values, dtype=np.float64)[ok].sum(axis=1)
     radius = sino.geometry.field_radius

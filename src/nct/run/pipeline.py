@@ -17,12 +17,14 @@ from omegaconf import DictConfig
 from nct.acquisition.io import save_sinogram
 from nct.acquisition.scan import Scan, output_grid
 from nct.run import export
-from nct.run.config import FileConf, NCTConf, RunSize, check_memory
+from nct.run.conf import FileConf
 from nct.run.folder import read_status
+from nct.run.memory import RunSize, check_memory
 from nct.run.metrics import FrameMetrics, frame_metrics, summarise
 from nct.run.phases import Instant, Phases
 from nct.run.reconstruct import reconstruct_scan
 from nct.run.reconstruction import Reconstruction
+from nct.run.schema import NCTConf
 from nct.run.tables import write_csv
 from nct.run.tracking import (
     run_hparams,

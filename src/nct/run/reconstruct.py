@@ -21,10 +21,11 @@ from nct.moments.determinacy import (
     motion_determinacy,
     turn_warnings,
 )
-from nct.physics.projector import fbp_frames
-from nct.run.config import NCTConf, chosen_objects
+from nct.physics.fbp import fbp_frames
+from nct.run.conf import chosen_objects
 from nct.run.consistency import check_geometry, geometry_warnings
 from nct.run.reconstruction import Reconstruction
+from nct.run.schema import NCTConf
 
 log = logging.getLogger(__name__)
 

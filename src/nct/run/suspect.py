@@ -21,8 +21,9 @@ from nct.fit.conf import HeldoutConf
 from nct.fit.problem import split_views, subset
 from nct.physics.conf import FBPConf
 from nct.physics.data_term import MAD_TO_STD
-from nct.physics.projector import fbp_frames, project
-from nct.run.config import SuspectConf
+from nct.physics.fbp import fbp_frames
+from nct.physics.projector import project
+from nct.run.conf import SuspectConf
 
 MAX_FRAME_VALUES = 2**26  # FBP frames held at once: 256 MiB of float32
 

@@ -1,4 +1,5 @@
-"""The scenes an experiment can simulate, as configs, and `build_phantom`, which makes a scene of one.
+"""The scenes an experiment can simulate, as configs, and `build_phantom`, which makes a scene of one
+(a composed scene's ellipses and their `Signal`s of time: ``signals.py``).
 
 Scene geometry is given as fractions of the field-of-view side (the image ``extent``) and motion
 per gantry rotation; a built `Phantom` (``shapes.py``: images and projections free of inverse
@@ -14,15 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nct.acquisition.scanner import ImageGrid
-from nct.scenes.shapes import (
-    EllipseGradients,
-    EllipseParams,
-    EllipsePhantom,
-    LetterPhantom,
-    Phantom,
-    glyph_polygons,
-    glyph_reach,
-)
+from nct.scenes.letters import LetterPhantom, glyph_polygons, glyph_reach
+from nct.scenes.shapes import EllipseParams, EllipsePhantom, Phantom
+from nct.scenes.signals import ELLIPSE_KEYS, GRADIENT_KEYS, EllipseConf, Signal, ellipse_phantom, signal_params
 
 FOV_RADIUS = 0.5  # inscribed circle of the unit field of view: objects must stay inside
 SIGN_CHECK_SIZE = 48  # a composed scene with negative or graded objects is checked >= 0 on this raster
@@ -32,72 +27,6 @@ WAVEFORMS = ("sinusoidal", "physiological")
 def _require(ok: bool, key: str, expected: str, got: object) -> None:
     if not ok:
         raise ValueError(f"phantom.{key} must be {expected}, got {got}")
-
-
-@dataclass
-class Signal:
-    """A scalar over time τ = t / rotation_time (rotations):
-    value + rate·τ + amplitude·sin(2π(cycles_per_rotation·τ + phase_deg/360))."""
-
-    value: float = 0.0
-    rate: float = 0.0
-    amplitude: float = 0.0
-    cycles_per_rotation: float = 0.0
-    phase_deg: float = 0.0
-
-    def at(self, tau: np.ndarray) -> np.ndarray:
-        """The signal at times ``tau`` in rotations: [T] -> [T] float64."""
-        tau = np.asarray(tau, dtype=np.float64)
-        wave = np.sin(2 * math.pi * (self.cycles_per_rotation * tau + self.phase_deg / 360.0))
-        return self.value + self.rate * tau + self.amplitude * wave
-
-
-@dataclass
-class EllipseConf:
-    """One ellipse of a composed scene: centre (x, y) and semi-axes a (along the ellipse's own x
-    axis) and b as fractions of the FOV side, rotation ``angle_deg`` counter-clockwise, intensity
-    at its centre (negative: darkens what it lies in, e.g. a lung in a body), and its change per FOV
-    side along x and y (``gradient_x``, ``gradient_y``: a graded ellipse, still projected exactly)."""
-
-    x: Signal = field(default_factory=Signal)
-    y: Signal = field(default_factory=Signal)
-    a: Signal = field(default_factory=lambda: Signal(value=0.1))
-    b: Signal = field(default_factory=lambda: Signal(value=0.1))
-    angle_deg: Signal = field(default_factory=Signal)
-    intensity: Signal = field(default_factory=lambda: Signal(value=1.0))
-    gradient_x: Signal = field(default_factory=Signal)
-    gradient_y: Signal = field(default_factory=Signal)
-
-
-_KEYS = ("x", "y", "a", "b", "angle_deg", "intensity")
-_GRADIENT_KEYS = ("gradient_x", "gradient_y")
-
-
-def _signal_params(objects: list[EllipseConf]) -> EllipseParams:
-    """Ellipse parameters from Signals: τ [T] -> [T, K, 6] (x, y, a, b, angle rad, intensity)."""
-
-    def params(tau: np.ndarray) -> np.ndarray:
-        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
-        out = np.stack([np.stack([getattr(o, k).at(tau) for k in _KEYS], axis=-1) for o in objects], axis=1)
-        out[..., 4] = np.deg2rad(out[..., 4])
-        return out
-
-    return params
-
-
-def _signal_gradients(objects: list[EllipseConf]) -> EllipseGradients:
-    """Intensity gradients from Signals: τ [T] -> [T, K, 2] (per FOV side along x, y)."""
-
-    def gradients(tau: np.ndarray) -> np.ndarray:
-        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
-        return np.stack([np.stack([getattr(o, k).at(tau) for k in _GRADIENT_KEYS], axis=-1) for o in objects], axis=1)
-
-    return gradients
-
-
-def _ellipse_phantom(objects: list[EllipseConf], rotation_time: float) -> EllipsePhantom:
-    return EllipsePhantom(_signal_params(objects), tuple(float(o.intensity.value) for o in objects), rotation_time,
-                          _signal_gradients(objects))
 
 
 @dataclass
@@ -230,10 +159,10 @@ class ComposedConf:
     def __post_init__(self) -> None:
         _require(len(self.objects) >= 1, "objects", "a non-empty list", len(self.objects))
         _require(self.rotations > 0, "rotations", "> 0", self.rotations)
-        keys = _KEYS + _GRADIENT_KEYS
+        keys = ELLIPSE_KEYS + GRADIENT_KEYS
         max_cycles = max(abs(getattr(o, k).cycles_per_rotation) for o in self.objects for k in keys)
         tau = np.linspace(0.0, self.rotations, int(64 * (1 + max_cycles) * self.rotations) + 2)
-        params = _signal_params(self.objects)(tau)
+        params = signal_params(self.objects)(tau)
         for k, obj in enumerate(params.transpose(1, 0, 2)):
             for col, key in ((2, "a"), (3, "b")):
                 low = float(obj[:, col].min())
@@ -245,9 +174,9 @@ class ComposedConf:
             _require(reach <= FOV_RADIUS, f"objects[{k}]",
                      f"inside the FOV's inscribed circle (|centre| + max(a, b) <= {FOV_RADIUS}) throughout the scan",
                      f"{reach:.4g}")
-        if (params[..., 5] < 0).any() or any(getattr(o, k) != Signal() for o in self.objects for k in _GRADIENT_KEYS):
+        if (params[..., 5] < 0).any() or any(getattr(o, k) != Signal() for o in self.objects for k in GRADIENT_KEYS):
             coarse = tau[::4]  # 16 times a cycle
-            scene = _ellipse_phantom(self.objects, 1.0)
+            scene = ellipse_phantom(self.objects, 1.0)
             lowest = scene.values(coarse, *ImageGrid(SIGN_CHECK_SIZE).xy()).min(axis=(1, 2))
             low, when = float(lowest.min()), float(coarse[np.argmin(lowest)])
             _require(low >= 0, "objects", "intensities that sum to >= 0 everywhere throughout the scan (a "
@@ -303,5 +232,5 @@ def build_phantom(conf: PhantomConf, rotation_time: float) -> Phantom:
     if isinstance(conf, HeartConf):
         return EllipsePhantom(_heart_params(conf), (float(conf.intensity),), rotation_time)
     if isinstance(conf, (CircleConf, StaticConf, ComposedConf)):
-        return _ellipse_phantom(conf.ellipse_objects(), rotation_time)
+        return ellipse_phantom(conf.ellipse_objects(), rotation_time)
     raise ValueError(f"phantom must be one of circle, heart, letters, static, composed, got {type(conf).__name__}")

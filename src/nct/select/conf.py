@@ -1,5 +1,5 @@
 """The tournament's settings (config group ``motion``): a plain dataclass without torch, so that parsing a
-config (``nct.run.config``) stays cheap."""
+config (``nct.run.config.validate``) stays cheap."""
 
 from __future__ import annotations
 
