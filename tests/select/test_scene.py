@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pytest
 
 from nct.select.candidates import SceneModel
-from nct.select.scene import raced
+from nct.select.scene import interior, raced
 
 
 @dataclass
@@ -37,3 +38,13 @@ def test_a_background_image_must_cut_the_residual_by_half_again():
     assert labels([plain, Judged(SceneModel(1, "image"), 0.02)]) == ["k1_image"]
     close = labels([plain, Judged(SceneModel(1, "image"), 0.06), Judged(SceneModel(3), 0.2)])
     assert close == ["k1_none", "k1_image"]
+
+
+def test_a_rim_has_no_inside():
+    """A disc has an inside; its one-pixel partial-volume ring, which a finer segmentation of noise-free views
+    finds as a second object, has none."""
+    yy, xx = np.mgrid[:32, :32]
+    r = np.hypot(yy - 15.5, xx - 15.5)
+    disc, ring = r < 8, (r >= 8) & (r < 9)
+    assert interior(np.stack([disc, disc])[None]) > 0.7
+    assert interior(np.stack([disc | ring, ring])[None]) == 0.0

@@ -35,6 +35,7 @@ from nct.fit.render import intensity
 from nct.fit.session import Session, Start, init_fit, sinogram_fit, streams
 from nct.fit.stages import FieldStage, SinogramFit
 from nct.fit.trainer import RunClock, snapshot
+from nct.fit.units import Units
 from nct.init.conf import BackgroundConf, InitConf
 from nct.init.sdf import binarise, masks_to_sdf
 from nct.method.fitted import FittedField, acquisition_span
@@ -42,6 +43,7 @@ from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
 from nct.select.race import race
 from nct.select.scene import Preparation, SceneSetup, scene_setups
+from nct.select.tournament import Verdict
 
 log = logging.getLogger(__name__)
 
@@ -117,20 +119,16 @@ def reconstruct(
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
-    The data are fitted in the method's units (fit/units.py) and the frames, SDFs and intensities
-    returned in the data's. Every candidate (a scene model: ``n_objects`` and ``background``, each chosen from
-    the data where None or auto (select/scene.py); ``motion.rungs`` x the starts) is fitted and scored on the
-    held-out views in one tournament (select/race.py); the winner is refined (``optim.refine``).
-    ``background=image``: a static image under the objects, fitted with them (init/background.py).
+    Fitted in the method's units (fit/units.py), returned in the data's. Every candidate (a scene model:
+    ``n_objects`` and ``background``, chosen from the data where None or auto (select/scene.py); ``motion.rungs``
+    x the starts) is fitted and scored on the held-out views in one tournament (select/race.py); the winner is
+    refined (``optim.refine``). ``background=image``: a static image under the objects (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
     ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
-    if n_objects is not None and n_objects < 1:
-        raise ValueError(f"n_objects must be >= 1 (or None: chosen from the data), got {n_objects}")
-    if logger not in LOGGERS:
-        raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+    _check(n_objects, logger)
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
     prepared = Preparation(sino, grid, loss, init, heldout, background, (fbp_filter, fbp_window_deg))
@@ -140,31 +138,45 @@ def reconstruct(
     lap("tournament")
     winner = verdict.winner
     chosen = next(s for s in setups if s.model == winner.scene)
-    prob = chosen.prob
-    net, fit, checked = nets[winner], fitted[winner].fit, fitted[winner].losses
+    prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses
     net.load_state_dict(fitted[winner].state)
     log.info("selection: %s", verdict.reason)
     if optim.refine:
         fit, checked = _refine(prob, session, net, fit, seed, optim, render)
-    times = prob.clock(frame_times)
+    times, units, held = prob.clock(frame_times), prob.units, prob.held_losses(checked)
     trace = _trace(session, prob, fit, times, render)
     frames, sdf = _frames(fit, times, render, prob.grid)
-    units = prob.units
-    held = prob.held_losses(checked)
     return NCTResult(
         frames=(frames * units.intensity).astype(np.float32), sdf=(sdf * units.length).astype(np.float32),
         intensities=(net.intensities.detach().cpu().double() * units.intensity).numpy(),
         heldout_loss=float(held.mean()) if len(held) else float("nan"),
         heldout_se=heldout_standard_error(held), stages=session.stages,
         model={"motion": winner.rung, "family": model.family, **net.describe()},
-        selection={"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
-                   "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows],
-                   "tolerance": motion.tolerance, "first_budget": motion.first_budget},
-        init=_init_record(chosen, winner, init.levels),
-        trace=trace,
-        background=None if net.background is None else
-        (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32),
-        fitted=_fitted(prob, fit, winner, model, sino, grid, render))
+        selection=_selection(verdict, model, motion), init=_init_record(chosen, winner, init.levels),
+        trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
+
+
+def _check(n_objects: int | None, logger: str) -> None:
+    """The arguments a caller of ``reconstruct`` may get wrong, named."""
+    if n_objects is not None and n_objects < 1:
+        raise ValueError(f"n_objects must be >= 1 (or None: chosen from the data), got {n_objects}")
+    if logger not in LOGGERS:
+        raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
+
+
+def _selection(verdict: Verdict, model: ModelConf, motion: SelectionConf) -> dict:
+    """What metrics.json records of the tournament: the winner, why, and every candidate's row."""
+    winner = verdict.winner
+    return {"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
+            "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows],
+            "tolerance": motion.tolerance, "first_budget": motion.first_budget}
+
+
+def _background(net: SpaceTimeField, units: Units) -> np.ndarray | None:
+    """The fitted static image [H, W] in the data's units, if the model has one."""
+    if net.background is None:
+        return None
+    return (net.background.detach().cpu().numpy() * units.intensity).astype(np.float32)
 
 
 def _fitted(prob: Problem, fit: FieldStage, winner: Candidate, model: ModelConf, sino: Sinogram, grid: ImageGrid,
