@@ -181,9 +181,11 @@ def test_a_poor_fit_warns_and_a_good_one_does_not(tiny_cfg, run_dir, caplog, ste
 @pytest.mark.parametrize("background", ["none", "image"])
 def test_a_run_writes_the_whole_image_beside_its_masks(tiny_cfg, run_dir, background):
     """reconstruction.npz: the NCT frames are the whole image, the background (if any) plus each object's
-    a(k) inside its mask (``nct_masks``); ``nct_background`` is there only with background=image."""
+    a(k) inside its mask (``nct_masks``); ``nct_background`` is there only with background=image; status.json
+    names the model the run ended with."""
     run_job(tiny_cfg(f"background={background}", *QUIET), run_dir)
     rec, metrics = np.load(run_dir / "reconstruction.npz"), read(run_dir / "metrics.json")
+    assert read(run_dir / "status.json")["model"] == {"n_objects": 1, "background": background, "motion": "free"}
     masks, frames = rec["nct_masks"], rec["nct"]
     assert masks.dtype == bool and masks.shape == (6, 1, 32, 32) and 0 < masks.mean() < 0.5
     assert ("nct_background" in rec) == (background == "image")

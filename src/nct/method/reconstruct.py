@@ -151,7 +151,7 @@ def reconstruct(
         intensities=(net.intensities.detach().cpu().double() * units.intensity).numpy(),
         heldout_loss=float(held.mean()) if len(held) else float("nan"),
         heldout_se=heldout_standard_error(held), stages=session.stages,
-        model={"motion": winner.rung, "family": model.family, **net.describe()},
+        model={"motion": winner.rung, **asdict(winner.scene), "family": model.family, **net.describe()},
         selection=_selection(verdict, model, motion), init=_init_record(chosen, winner, init.levels),
         trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
 

@@ -116,9 +116,16 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
         record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
         raise
     _write_json(out_dir / "metrics.json", result)
-    record("ok", wall=result["wall_time_s"], warnings=warnings)
+    record("ok", wall=result["wall_time_s"], warnings=warnings, **_model(result))
     _log_summary(result, warnings, out_dir)
     return result.get("heldout_loss")
+
+
+def _model(result: dict) -> dict:
+    """status.json's ``model``: the scene model and motion rung the run ended with (NeuralCT runs only)."""
+    if "model" not in result:
+        return {}
+    return {"model": {key: result["model"][key] for key in ("n_objects", "background", "motion")}}
 
 
 def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
@@ -129,6 +136,10 @@ def _log_summary(result: dict, warnings: list[str], out_dir: Path) -> None:
     for name in ("fbp", "nct"):
         if name in result:
             log.info("%s: %s", name.upper(), quality_line(result[name]))
+    if "model" in result:
+        model = result["model"]
+        log.info("model: %d object%s, background %s, motion %s (selection.csv)", model["n_objects"],
+                 "s" * (model["n_objects"] > 1), model["background"], model["motion"])
     for line in warnings:
         log.warning("%s", line)
     log.info("wall time %.1f s (as in status.json and metrics.json); outputs in %s",
