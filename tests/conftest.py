@@ -51,7 +51,7 @@ from nct.acquisition.sinogram import Sinogram
 from nct.cli import main as cli
 from nct.cli.main import CONFIG_MODULE
 from nct.fields.conf import ModelConf
-from nct.fit.conf import LossConf, OptimConf, TrainerConf
+from nct.fit.conf import CallbacksConf, LossConf, OptimConf, TrainerArgs, TrainerConf
 from nct.init.conf import BackgroundConf, InitConf
 from nct.method.reconstruct import reconstruct
 from nct.scenes.phantoms import CircleConf, ComposedConf, build_phantom
@@ -137,7 +137,7 @@ def nct(tmp_path, monkeypatch, capsys):
 
 
 MODEL = ModelConf(width=16, depth=2, temporal_width=16, temporal_depth=2, n_terms=8)
-TRAINER = TrainerConf(accelerator="cpu", progress_bar=False)
+TRAINER = TrainerConf(TrainerArgs(accelerator="cpu"), CallbacksConf(progress_bar=False))
 OPTIM = OptimConf(init_steps=30, fit_steps=40, refine=False, batch_views=8, warmup_steps=5, lr_decay_every=20)
 INIT = InitConf(frames_per_rotation=12)
 NO_BACKGROUND = BackgroundConf(name="none")  # the paper's scene: K objects on an empty background, nothing chosen

@@ -59,10 +59,12 @@ def test_python_gives_the_command_lines_frames_bit_for_bit(request, scan_file, t
 
 
 def test_settings_take_options_and_keys_as_the_command_line_does():
-    conf = configure(None, {"optim": "fast", "motion": {"tolerance": 0.5, "rungs": ["static", "free"]}},
+    conf = configure(None, {"optim": "fast", "motion": {"tolerance": 0.5, "rungs": ["static", "free"]},
+                            "trainer": "gpu", "callbacks": {"snapshot_every_n_steps": 25}},
                      {"seed": 3, "data": {"n_objects": 2}})
     assert conf == nct.compose(["optim=fast", "motion.tolerance=0.5", "motion.rungs=[static,free]", "seed=3",
-                                "data.n_objects=2"])
+                                "data.n_objects=2", "trainer=gpu", "callbacks.snapshot_every_n_steps=25"])
+    assert (conf.trainer.accelerator, conf.callbacks.snapshot_every_n_steps) == ("gpu", 25)
 
 
 def test_a_config_is_the_start_and_arguments_left_none_keep_it():
@@ -77,6 +79,9 @@ def test_a_config_is_the_start_and_arguments_left_none_keep_it():
      "unknown key optim.fitsteps: not a setting of optim (OptimConf); did you mean optim.fit_steps?"),
     ({"optim": {"fit_steps": "many"}}, "Value 'many' of type 'str' could not be converted to Integer"),
     ({"optim": {"fit_steps": -1}}, "optim.fit_steps"),
+    ({"trainer": {"snapshot_every_n_steps": 25}}, "unknown key trainer.snapshot_every_n_steps: not a setting of "
+     "trainer (TrainerArgs); it is a setting of the config group callbacks: did you mean "
+     "callbacks.snapshot_every_n_steps?"),
     ({"motion": "bogus"}, "motion=bogus"),
     ({"optim": 5}, "optim: expected an option of the group (a str) or a dict of its keys, got int"),
     ({"image": {"size": 64}},

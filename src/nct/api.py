@@ -40,7 +40,8 @@ from nct.run.suggest import describe, unknown_key
 __all__ = ["NCTConf", "Reconstruction", "Scan", "Truth", "compose", "load", "reconstruct"]
 
 #: The config groups `reconstruct` takes as settings (what the method reads), and its top-level keys.
-GROUPS = ("fbp", "model", "motion", "background", "loss", "optim", "render", "init", "heldout", "trainer", "suspect")
+GROUPS = ("fbp", "model", "motion", "background", "loss", "optim", "render", "init", "heldout", "trainer",
+          "callbacks", "suspect")
 KEYS = ("method", "threads")
 #: Settings of a run that a Scan or an argument of `reconstruct` holds instead, and where.
 ELSEWHERE = {
@@ -82,9 +83,10 @@ def reconstruct(scan: Scan, *, n_objects: int | str | None = None, background: s
     ``"auto"``; ``"free"``, ``"rigid"``, ``"auto"``, ...); ``seed``: every random stream's (None: ``config``'s,
     0 by default); ``config``: a composed `NCTConf` (`compose`) to start from (None: the defaults).
     ``settings``: one keyword per config group of the method (``fbp``, ``model``, ``motion``, ``background``,
-    ``loss``, ``optim``, ``render``, ``init``, ``heldout``, ``trainer``, ``suspect``), a string picking one of
-    its options (``optim="fast"``, as ``optim=fast``) or a dict of its keys (``optim={"fit_steps": 500}``,
-    as ``optim.fit_steps=500``), and ``method`` ("nct" or "fbp") and ``threads`` (torch's threads);
+    ``loss``, ``optim``, ``render``, ``init``, ``heldout``, ``trainer``, ``callbacks``, ``suspect``), a string
+    picking one of its options (``optim="fast"``, as ``optim=fast``) or a dict of its keys
+    (``optim={"fit_steps": 500}``, as ``optim.fit_steps=500``), and ``method`` ("nct" or "fbp") and ``threads``
+    (torch's threads);
     options are picked first, then keys set, then all validated as the command validates its overrides.
     The grid and frame times are the scan's. Bad settings: `InputError` in one line naming the key.
     """

@@ -60,7 +60,8 @@ def test_paper_sweeps_match_the_paper(name: str, values: dict, n_jobs: int):
     if name != "displacement":
         assert cfg.phantom.displacement_deg == 100.0
     default = compose_hydra()  # all but the swept keys (set per job) stay at the tuned defaults
-    for part in ("loss", "model", "optim", "render", "init", "heldout", "trainer", "image", "scanner", "data", "seed"):
+    for part in ("loss", "model", "optim", "render", "init", "heldout", "trainer", "callbacks", "image", "scanner",
+                 "data", "seed"):
         assert cfg[part] == default[part], part
 
 

@@ -36,6 +36,10 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
     (["+scanner.source_distance=3"], "unknown key scanner.source_distance: not a setting of scanner (ScannerConf); "
                                      "it is a setting of scanner=fan: did you mean scanner=fan?"),
     (["optm=fast"], "unknown key optm: not a setting of the config; did you mean optim?"),
+    # a key of another group names that group (the callbacks' settings are not Trainer arguments)
+    (["trainer.snapshot_every_n_steps=25"], "unknown key trainer.snapshot_every_n_steps: not a setting of trainer "
+                                            "(TrainerArgs); it is a setting of the config group callbacks: did you "
+                                            "mean callbacks.snapshot_every_n_steps?"),
     (["phantom.displacement_deg=abc"], "Error merging override phantom.displacement_deg=abc: Value 'abc' of type "
                                        "'str' could not be converted to Float (key: phantom.displacement_deg)"),
     (["phantom=unknown"], "In 'config': Could not find 'phantom/unknown'; Available options in 'phantom': circle, "
@@ -81,10 +85,11 @@ def test_help_lists_only_the_groups_users_pick(nct):
     code, out, _ = nct("--help")
     groups = out.split("== Configuration groups ==")[1].split("== Config ==")[0]
     names = {line.split(":")[0] for line in groups.splitlines()[2:] if ":" in line}
-    assert code == 0 and names == {"background", "data", "debug", "experiment", "fbp", "heldout", "hparams_search",
-                                   "image", "init", "logger", "loss", "model", "motion", "optim", "phantom", "render",
-                                   "scanner", "suspect", "sweep", "trainer"}
+    assert code == 0 and names == {"background", "callbacks", "data", "debug", "experiment", "fbp", "heldout",
+                                   "hparams_search", "image", "init", "logger", "loss", "model", "motion", "optim",
+                                   "phantom", "render", "scanner", "suspect", "sweep", "trainer"}
     assert "sweep: displacement, displacement_quick, fmax, fmax_quick, lambda_grid, lambda_grid_quick" in groups
+    assert "trainer: cpu, gpu" in groups and "callbacks: default" in groups
 
 
 def test_a_single_run_is_timed_from_the_process_start(monkeypatch):

@@ -15,7 +15,7 @@ import torch
 from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.fields.conf import ModelConf
 from nct.fit import progress
-from nct.fit.conf import LossConf, OptimConf, TrainerConf
+from nct.fit.conf import CallbacksConf, LossConf, OptimConf, TrainerArgs, TrainerConf
 from nct.fit.progress import StageBar, StageLog, show_bar
 from nct.init.conf import InitConf
 from nct.method.reconstruct import reconstruct
@@ -71,7 +71,8 @@ def test_without_a_bar_stages_log_progress_and_one_line_at_their_end(caplog, mon
     with caplog.at_level(logging.INFO, logger="nct.fit.progress"):
         result = reconstruct(sino, GRID, times, ModelConf(width=8, depth=1, temporal_width=8, temporal_depth=1,
                                                           n_terms=2), LossConf(),
-                             TrainerConf(accelerator="cpu", progress_bar=False, progress_every_s=1.0), 0,
+                             TrainerConf(TrainerArgs(accelerator="cpu"),
+                                         CallbacksConf(progress_bar=False, progress_every_s=1.0)), 0,
                              logger="none", optim=optim, init=InitConf(frames_per_rotation=6), background=NO_BACKGROUND)
     # fields this small explain nothing in 6 steps: a restart joins (reconstruct.py's rule)
     planned = {"free_init": 4, "free_fit": 6, "free_restart_init": 4, "free_restart_fit": 6, "refine_init": 2,

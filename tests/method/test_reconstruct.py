@@ -17,7 +17,7 @@ from nct.acquisition.scanner import ImageGrid, Scanner
 from nct.acquisition.sinogram import Sinogram, Truth
 from nct.errors import DivergenceError
 from nct.fields.conf import ModelConf
-from nct.fit.conf import HeldoutConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.fit.conf import HeldoutConf, LossConf, OptimConf, RenderConf
 from nct.fit.problem import heldout_standard_error, rotations_since_start, split_views
 from nct.fit.render import project_frames
 from nct.init.conf import InitConf
@@ -306,7 +306,7 @@ def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_marg
     sino = simulate(phantom, scanner, grid, times, None, np.random.default_rng(0))
     model = ModelConf(width=32, depth=2, temporal_width=32, temporal_depth=2, n_terms=16)
     optim = OptimConf(init_steps=100, fit_steps=300, refine=False, batch_views=10, warmup_steps=10, lr_decay_every=30)
-    result = reconstruct(sino, grid, times, model, LossConf(), TrainerConf(accelerator="cpu", progress_bar=False), 0,
+    result = reconstruct(sino, grid, times, model, LossConf(), TRAINER, 0,
                          log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24), background=NO_BACKGROUND)
     level = sino.truth.level
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))

@@ -13,7 +13,7 @@ from omegaconf.errors import ConfigKeyError, ValidationError
 
 import nct
 from nct.errors import InputError
-from nct.fit.conf import HeldoutConf, OptimConf, RenderConf, TrainerConf
+from nct.fit.conf import CallbacksConf, HeldoutConf, OptimConf, RenderConf, TrainerArgs
 from nct.init.conf import InitConf
 from nct.run.config import validate
 from nct.run.schema import NCTConf
@@ -49,7 +49,7 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (r.band_px, r.band_start_px, r.band_anneal, r.mu, r.k_samp) == (1.0, 4.0, 0.6, 50.0, 1)
     assert (conf.init.frames_per_rotation, conf.init.kappa, conf.init.gmm_share, conf.init.starts) == (60, 3, 0.02, 2)
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
-    assert conf.trainer == TrainerConf(name="cpu", accelerator="cpu")
+    assert conf.trainer == TrainerArgs(name="cpu", accelerator="cpu") and conf.callbacks == CallbacksConf()
     assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance, conf.motion.band_f_max,
             conf.motion.band_min_rotations, conf.motion.milestone_margin) == (["free"], 0.25, 2 / 3, 0.5, 1.5, 0.05)
 
@@ -114,8 +114,8 @@ def test_composition_errors_name_the_key(override, error, words):
         ("heldout.every=-1", "heldout.every must be >= 0"),
         ("heldout.run=0", "heldout.run must be >= 1"),
         ("trainer.devices=0", "trainer.devices must be >= 1"),
-        ("trainer.snapshot_every_n_steps=-1", "trainer.snapshot_every_n_steps must be >= 0"),
-        ("trainer.progress_every_s=-1", "trainer.progress_every_s must be >= 0"),
+        ("callbacks.snapshot_every_n_steps=-1", "callbacks.snapshot_every_n_steps must be >= 0"),
+        ("callbacks.progress_every_s=-1", "callbacks.progress_every_s must be >= 0"),
         ("+phantom.displacment_deg=50", "did you mean phantom.displacement_deg?"),
         ("+seeds=1", "unknown key seeds: not a setting of the config; did you mean seed?"),
         ("phantom=composed +phantom.objects.0.angle=1", "unknown key phantom.objects[0].angle"),

@@ -305,12 +305,12 @@ def test_resume_refuses_a_checkpoint_of_another_model_version(tiny_cfg, tmp_path
 
 
 def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_path):
-    """trainer.snapshot_every_n_steps keeps the field every n steps of each stage; after the run each
+    """callbacks.snapshot_every_n_steps keeps the field every n steps of each stage; after the run each
     snapshot is scored against the truth (trace.csv, trace.png, TensorBoard). The last snapshot is
     the result itself, and taking snapshots leaves the reconstruction bit for bit as it was."""
     steps = ("optim.init_steps=6", "optim.fit_steps=5", "export.gif=false", "export.tiff=false")
     run_job(tiny_cfg(*steps, "export.png=false"), tmp_path / "plain")  # its pictures come after the fit, unread
-    run_job(tiny_cfg(*steps, "trainer.snapshot_every_n_steps=2"), tmp_path / "traced")
+    run_job(tiny_cfg(*steps, "callbacks.snapshot_every_n_steps=2"), tmp_path / "traced")
     np.testing.assert_array_equal(np.load(tmp_path / "traced" / "reconstruction.npz")["nct"],
                                   np.load(tmp_path / "plain" / "reconstruction.npz")["nct"])
     metrics = read(tmp_path / "traced" / "metrics.json")
@@ -337,7 +337,7 @@ def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg
     """motion.rungs [static, free] on the static experiment: static wins within tolerance; the trace's last
     point is the winner's output field (a point of its own where another candidate ran after it)."""
     run_job(tiny_cfg("experiment=static", "motion.rungs=[static,free]", "motion.tolerance=0.5", "optim.init_steps=80",
-                     "optim.fit_steps=80", "trainer.snapshot_every_n_steps=40", "logger=none", "export.gif=false",
+                     "optim.fit_steps=80", "callbacks.snapshot_every_n_steps=40", "logger=none", "export.gif=false",
                      "export.tiff=false", "export.png=false"), tmp_path)
     metrics = read(tmp_path / "metrics.json")
     assert metrics["model"]["motion"] == "static" and metrics["selection"]["winner"].startswith("static")

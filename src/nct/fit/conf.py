@@ -1,14 +1,15 @@
 """Settings of the fits, one dataclass per config group, named for the code that reads it.
 
-``trainer``: Lightning's own Trainer settings (``trainer.run_stage``); ``optim``: steps and the
-optimiser (the stages and the passes of ``method.reconstruct``); ``render``: the occupancy and
-its projection (``SinogramFit``); ``heldout``: the views held out of every fit; ``loss``: the loss weights. Plain dataclasses
-without torch, so that parsing a config (``nct.run.config.validate``) stays cheap.
+``trainer``: Lightning's own Trainer arguments, ``callbacks``: the settings of the stages' callbacks
+(both ``trainer.run_stage``'s); ``optim``: steps and the optimiser (the stages and the passes of
+``method.reconstruct``); ``render``: the occupancy and its projection (``SinogramFit``); ``heldout``: the
+views held out of every fit; ``loss``: the loss weights. Plain dataclasses without torch, so that parsing
+a config (``nct.run.config.validate``) stays cheap.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 from nct.errors import require
@@ -52,33 +53,54 @@ class LossConf:
 
 
 @dataclass
-class TrainerConf:
-    """Lightning's Trainer settings (config group ``trainer``: cpu | gpu).
-
-    accelerator, devices: passed to Lightning. progress_bar: a bar per stage; None shows it when
-    stdout is a terminal (otherwise log lines: one every progress_every_s seconds of a stage, 0:
-    none, and one at its end). log_every_n_steps: scalars;
-    image_every_n_steps: frame and residual images in TensorBoard. snapshot_every_n_steps: keep
-    the field every this many steps of each stage and score it after the run, the points of the
-    run's Dice-against-time curve (``trace.csv``, ``trace.png``; 0: none).
-    """
+class TrainerArgs:
+    """Lightning's Trainer arguments (config group ``trainer``: cpu | gpu), given to every stage's Trainer
+    as they are: accelerator, devices; log_every_n_steps: scalars (and the divergence check's steps)."""
 
     name: str = "cpu"
     accelerator: str = "auto"
     devices: int = 1
+    log_every_n_steps: int = 10
+
+    def __post_init__(self) -> None:
+        for key in ("devices", "log_every_n_steps"):
+            require(getattr(self, key) >= 1, f"trainer.{key}", ">= 1", getattr(self, key))
+
+
+@dataclass
+class CallbacksConf:
+    """The settings of the stages' callbacks (config group ``callbacks``, as lightning-hydra-template
+    keeps them apart from the Trainer's arguments).
+
+    progress_bar: a bar per stage (``progress.StageBar``); None shows it when stdout is a terminal
+    (otherwise log lines, ``progress.StageLog``: one every progress_every_s seconds of a stage, 0: none,
+    and one at its end). image_every_n_steps: frame and residual images in TensorBoard
+    (``callbacks.ImageLog``). snapshot_every_n_steps: keep the field every this many steps of each
+    stage and score it after the run, the points of the run's Dice-against-time curve
+    (``trainer.SnapshotLog``; ``trace.csv``, ``trace.png``; 0: none).
+    """
+
     progress_bar: bool | None = None
     progress_every_s: float = 5.0
-    log_every_n_steps: int = 10
     image_every_n_steps: int = 200
     snapshot_every_n_steps: int = 0
 
     def __post_init__(self) -> None:
-        for key in ("devices", "log_every_n_steps", "image_every_n_steps"):
-            require(getattr(self, key) >= 1, f"trainer.{key}", ">= 1", getattr(self, key))
-        require(self.progress_every_s >= 0, "trainer.progress_every_s", ">= 0 (0: no progress lines)",
+        require(self.image_every_n_steps >= 1, "callbacks.image_every_n_steps", ">= 1", self.image_every_n_steps)
+        require(self.progress_every_s >= 0, "callbacks.progress_every_s", ">= 0 (0: no progress lines)",
                 self.progress_every_s)
-        require(self.snapshot_every_n_steps >= 0, "trainer.snapshot_every_n_steps", ">= 0 (0: no curve)",
+        require(self.snapshot_every_n_steps >= 0, "callbacks.snapshot_every_n_steps", ">= 0 (0: no curve)",
                 self.snapshot_every_n_steps)
+
+
+@dataclass(frozen=True)
+class TrainerConf:
+    """How every stage's Trainer is made (``trainer.run_stage``): Lightning's ``args`` (config group
+    ``trainer``) and its callbacks' settings (config group ``callbacks``), one value for the method to
+    pass down."""
+
+    args: TrainerArgs = field(default_factory=TrainerArgs)
+    callbacks: CallbacksConf = field(default_factory=CallbacksConf)
 
 
 @dataclass

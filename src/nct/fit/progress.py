@@ -21,7 +21,7 @@ log = logging.getLogger(__name__)
 
 
 def show_bar(progress_bar: bool | None) -> bool:
-    """The ``trainer.progress_bar`` setting: on when asked, or (None) when stdout is a terminal."""
+    """The ``callbacks.progress_bar`` setting: on when asked, or (None) when stdout is a terminal."""
     return sys.stdout.isatty() if progress_bar is None else bool(progress_bar)
 
 

@@ -128,7 +128,7 @@ def at_rate(optim: OptimConf, rate: float) -> OptimConf:
 
 def _snapshot_log(session: Session, name: str) -> tuple[SnapshotLog, ...]:
     """The snapshot callback of stage ``name``, if the run keeps a trace."""
-    every = session.trainer.snapshot_every_n_steps
+    every = session.trainer.callbacks.snapshot_every_n_steps
     return (SnapshotLog(name, every, session.snapshots, session.clock),) if every else ()
 
 

@@ -151,14 +151,15 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
               check_every: int = 0, resume: bool = False) -> dict:
     """Fit ``module`` for ``steps`` in a fresh Trainer with its own logger version and checkpoint
     folder (``log_dir/tb/<name>``, ``log_dir/checkpoints/<name>``); return steps, losses, wall time.
-    ``conf``: Lightning's settings; the divergence limit is the module's ``optim.divergence_factor``.
+    ``conf``: Lightning's arguments and the callbacks' settings; the divergence limit is the module's
+    ``optim.divergence_factor``.
     With held-out views in ``data`` and ``check_every`` > 0, Lightning validates every
     ``check_every`` steps (``val/heldout_loss``). ``resume``: a stage that finished before in
     ``log_dir`` is not run again; its checkpoint is loaded and its record returned (each stage
     starts a fresh optimiser, so this continues a killed run exactly)."""
     if logger not in LOGGERS:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
-    check_accelerator(conf.accelerator)
+    check_accelerator(conf.args.accelerator)
     start = time.perf_counter()
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
@@ -166,14 +167,14 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     if resume and folder is not None and (folder / RECORD).is_file():
         return load_stage(module, folder, name)
     every = check_every if data.held else 0
-    bar = show_bar(conf.progress_bar)
+    bar = show_bar(conf.callbacks.progress_bar)
     stage_logger, callbacks = stage_logging(module, name, conf, log_dir, logger, extra_callbacks, bar)
     with quiet_lightning():
         trainer = L.Trainer(
-            accelerator=conf.accelerator, devices=conf.devices, max_steps=steps, max_epochs=1,
+            accelerator=conf.args.accelerator, devices=conf.args.devices, max_steps=steps, max_epochs=1,
             logger=stage_logger, callbacks=callbacks, enable_checkpointing=False,
             enable_progress_bar=bar, enable_model_summary=False,
-            log_every_n_steps=min(conf.log_every_n_steps, steps), num_sanity_val_steps=0,
+            log_every_n_steps=min(conf.args.log_every_n_steps, steps), num_sanity_val_steps=0,
             **validation(steps, every),
         )
         trainer.fit(module, train_dataloaders=data.train_dataloader(),
@@ -211,11 +212,11 @@ def stage_logging(module: FieldStage, name: str, conf: TrainerConf, log_dir: Pat
     divergence check, ``extra_callbacks``, the progress bar (``bar``) or lines, then the learning
     rate and (TensorBoard) the images."""
     callbacks: list[Callback] = [DivergenceCheck(name, module.optim.divergence_factor), *extra_callbacks]
-    callbacks.append(StageBar(name) if bar else StageLog(name, conf.progress_every_s))
+    callbacks.append(StageBar(name) if bar else StageLog(name, conf.callbacks.progress_every_s))
     stage_logger: TensorBoardLogger | CSVLogger | bool = False
     if log_dir is not None and logger == "tensorboard":
         stage_logger = TensorBoardLogger(str(log_dir), name="tb", version=name, default_hp_metric=False)
-        callbacks += [LearningRateMonitor("step"), ImageLog(name, conf.image_every_n_steps)]
+        callbacks += [LearningRateMonitor("step"), ImageLog(name, conf.callbacks.image_every_n_steps)]
     elif log_dir is not None and logger == "csv":
         stage_logger = CSVLogger(str(log_dir), name="csv", version=name)
         callbacks.append(LearningRateMonitor("step"))

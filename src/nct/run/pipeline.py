@@ -85,7 +85,7 @@ def run(conf: NCTConf, cfg: DictConfig, out_dir: Path, started: Instant) -> tupl
         if rec.trace:
             result["trace"] = score_trace(rec.trace, truth.frames, truth.level)
     elif rec.trace:
-        log.warning("trainer.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
+        log.warning("callbacks.snapshot_every_n_steps: the data hold no truth frames, so the run has no "
                     "Dice-against-time curve")
     phases.lap("metrics")
     log.info("writing the frames, pictures and movie ...")

@@ -16,6 +16,7 @@ import numpy as np
 
 from nct.acquisition.scan import Scan
 from nct.acquisition.times import slow_rotation_warning
+from nct.fit.conf import TrainerConf
 from nct.moments.determinacy import (
     determinacy_warnings,
     motion_determinacy,
@@ -72,8 +73,9 @@ def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
     from nct.method.reconstruct import reconstruct
 
     log.info("NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...")
+    trainer = TrainerConf(conf.trainer, conf.callbacks)  # each stage's Trainer: its arguments and callbacks
     result = reconstruct(
-        scan.sinogram, scan.grid, scan.frame_times, conf.model, conf.loss, conf.trainer, conf.seed,
+        scan.sinogram, scan.grid, scan.frame_times, conf.model, conf.loss, trainer, conf.seed,
         log_dir=log_dir, logger=conf.logger.name,
         fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=chosen_objects(conf.data.n_objects),
         motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,

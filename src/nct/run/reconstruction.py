@@ -36,7 +36,7 @@ class Reconstruction:
     the truth-free signs of a poor fit or of data that do not fix the motion (status.json's); ``record``:
     what metrics.json records of it, in plain JSON values (frame times, held-out losses, model, selection,
     stages, intensities, init, motion_determinacy, geometry_check); ``fitted``: the winner's field and what
-    renders it (None for FBP only); ``trace``: the snapshots' frames (``trainer.snapshot_every_n_steps``;
+    renders it (None for FBP only); ``trace``: the snapshots' frames (``callbacks.snapshot_every_n_steps``;
     not saved). Frame times and the grid are the scan's (``times`` [F] s, ``extent``).
     """
 

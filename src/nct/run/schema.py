@@ -14,7 +14,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from nct.fields.conf import ModelConf
-from nct.fit.conf import HeldoutConf, LossConf, OptimConf, RenderConf, TrainerConf
+from nct.fit.conf import CallbacksConf, HeldoutConf, LossConf, OptimConf, RenderConf, TrainerArgs
 from nct.init.conf import BackgroundConf, InitConf
 from nct.physics.conf import FBPConf
 from nct.run.conf import (
@@ -52,7 +52,8 @@ class NCTConf:
     render: RenderConf = field(default_factory=RenderConf)
     init: InitConf = field(default_factory=InitConf)
     heldout: HeldoutConf = field(default_factory=HeldoutConf)
-    trainer: TrainerConf = field(default_factory=TrainerConf)
+    trainer: TrainerArgs = field(default_factory=TrainerArgs)
+    callbacks: CallbacksConf = field(default_factory=CallbacksConf)
     logger: LoggerConf = field(default_factory=LoggerConf)
     export: ExportConf = field(default_factory=ExportConf)
     suspect: SuspectConf = field(default_factory=SuspectConf)
@@ -90,7 +91,8 @@ SCHEMAS: dict[str, dict[str, type]] = {
     "render": {"default": RenderConf},
     "init": {"default": InitConf},
     "heldout": {"default": HeldoutConf},
-    "trainer": {"default": TrainerConf},
+    "trainer": {"default": TrainerArgs},
+    "callbacks": {"default": CallbacksConf},
     "logger": {"default": LoggerConf},
     "suspect": {"default": SuspectConf},
 }

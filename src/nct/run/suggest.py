@@ -1,6 +1,6 @@
 """The did-you-mean of a config key no schema declares: every undeclared key of a composed config
 (``+key`` included, which Hydra lets through) and one line for it naming the nearest key, the option of
-its group that has it, or the config group it resembles; OmegaConf's errors in one line."""
+its group or the other group that has it, or the config group it resembles; OmegaConf's errors in one line."""
 
 from __future__ import annotations
 
@@ -33,16 +33,22 @@ def undeclared_keys(node: DictConfig, prefix: str = "") -> Iterator[tuple[str, t
 
 def unknown_key(full_key: str, schema: type) -> str:
     """One line for a key that ``schema`` (a dataclass) does not declare, with a did-you-mean: the option
-    of its group that has the key (``data.path`` -> ``data=file``), else the nearest of its keys and, at
-    the top level, of the config groups (``expriment`` -> the group ``experiment``, not the key ``export``)."""
+    of its group that has the key (``data.path`` -> ``data=file``), else the one other group that has it
+    (``trainer.snapshot_every_n_steps`` -> ``callbacks.snapshot_every_n_steps``), else the nearest of its
+    keys and, at the top level, of the config groups (``expriment`` -> the group ``experiment``, not the
+    key ``export``)."""
     parent, _, key = full_key.rpartition(".")
     known = [f.name for f in fields(schema)]
     where = f"{parent} ({schema.__name__})" if parent else "the config"
     owners = [name for name, node in SCHEMAS.get(parent, {}).items() if key in {f.name for f in fields(node)}]
+    elsewhere = [group for group, options in SCHEMAS.items() if group != parent and parent in SCHEMAS
+                 and any(key in {f.name for f in fields(node)} for node in options.values())]
     groups = {} if parent else {group: options for group, options in config_groups().items() if group not in known}
     close = difflib.get_close_matches(key, known + list(groups), n=1)
     if owners:
         hint = f"it is a setting of {parent}={owners[0]}: did you mean {parent}={owners[0]}?"
+    elif len(elsewhere) == 1:
+        hint = f"it is a setting of the config group {elsewhere[0]}: did you mean {elsewhere[0]}.{key}?"
     elif close and close[0] in groups:
         hint = f"did you mean the config group {close[0]} ({close[0]}=<option>: {', '.join(groups[close[0]])})?"
     else:
