@@ -4,7 +4,9 @@ for it and the starts found for it."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 from scipy import ndimage
@@ -27,6 +29,8 @@ RACE_MARGIN = 1.25  # the runner-up is raced too where its price is within this 
 # streak, not an object: a model of several that needs one is not offered (the scene-model diagnostic's 101 files:
 # the runner-up raced on 42 instead of 72, the truth's model among those raced on 77 instead of 79).
 MIN_INTERIOR = 0.1
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -121,9 +125,14 @@ def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> lis
 def raced(setups: list[SceneSetup]) -> list[SceneSetup]:
     """The cheapest of ``setups`` (``price``), and the runner-up where its price is within ``RACE_MARGIN`` of the
     cheapest's, simplest first."""
-    ranked = sorted(setups, key=price)
-    kept = [s for s in ranked[:2] if price(s) <= price(ranked[0]) + math.log(RACE_MARGIN)]
-    return sorted(kept, key=lambda s: s.model.simplicity)
+    return sorted(cheapest(setups, price), key=lambda s: s.model.simplicity)
+
+
+def cheapest(items: list[T], priced: Callable[[T], float], margin: float = RACE_MARGIN) -> list[T]:
+    """The cheapest of ``items`` by ``priced``, and the runner-up where its price is within ``margin`` (a factor)
+    of the cheapest's, cheapest first (ties in ``items``' order): `raced`'s choice, also scored offline."""
+    ranked = sorted(items, key=priced)
+    return [s for s in ranked[:2] if priced(s) <= priced(ranked[0]) + math.log(margin)]
 
 
 def _found(prepared: Preparation, models: list[SceneModel], seed: int) -> list[SceneSetup]:
@@ -148,8 +157,12 @@ def interior(masks: np.ndarray) -> float:
 
 
 def price(setup: SceneSetup) -> float:
-    """A scene model's price: log of its best judged segmentation's residual, plus ``log(1 / OBJECT_GAIN)`` an
-    object and ``log(IMAGE_RATIO)`` for a background image (a model must earn its parts)."""
-    model = setup.model
-    return (math.log(max(setup.judged, 1e-12)) + model.n_objects * math.log(1 / OBJECT_GAIN)
-            + (model.background == "image") * math.log(IMAGE_RATIO))
+    """A scene model's price (`model_price` of its best judged segmentation's residual)."""
+    return model_price(setup.judged, setup.model)
+
+
+def model_price(judged: float, model: SceneModel, gain: float = OBJECT_GAIN, ratio: float = IMAGE_RATIO) -> float:
+    """The price of ``model`` whose best judged segmentation leaves the relative residual ``judged`` (judge.py): its
+    log, plus ``log(1 / gain)`` an object and ``log(ratio)`` for a background image (a model must earn its parts)."""
+    return (math.log(max(judged, 1e-12)) + model.n_objects * math.log(1 / gain)
+            + (model.background == "image") * math.log(ratio))
