@@ -49,7 +49,7 @@ from nct.fit.problem import Problem, prepare  # noqa: E402
 from nct.init.background import moving_problem, static_start  # noqa: E402
 from nct.init.conf import InitConf  # noqa: E402
 from nct.init.foreground import noise_sigma  # noqa: E402
-from nct.init.judge import MAX_PIXELS, MAX_VIEWS  # noqa: E402
+from nct.init.judge import views_norm  # noqa: E402
 from nct.init.mixture import algorithm1_levels, mixture_classes  # noqa: E402
 from nct.init.segmentation import Segmentation  # noqa: E402
 from nct.init.starts import judge_of, search, sought  # noqa: E402
@@ -89,11 +89,9 @@ def problems(path: Path, timer: Timer) -> tuple[Problem, Problem, NCTConf]:
 
 
 def judged_norm(prob: Problem, k: int) -> float:
-    """The norm of the fitted views the judge compares K masks with (judge.py's even pick): a residual
-    relative to one problem's views becomes one relative to another's."""
-    values = prob.views.values[torch.from_numpy(prob.fit_views)]
-    n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // (k * prob.grid.size**2)))
-    return float(np.linalg.norm(values[np.linspace(0, values.shape[0] - 1, n).round().astype(int)].double().numpy()))
+    """The norm of the fitted views the judge compares K masks with (judge.views_norm): a residual relative to one
+    problem's views becomes one relative to another's."""
+    return views_norm(prob.views.values[torch.from_numpy(prob.fit_views)], k * prob.grid.size**2)
 
 
 def noise_floor(prob: Problem) -> float:

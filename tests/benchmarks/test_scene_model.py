@@ -11,7 +11,7 @@ import pytest
 from nct.errors import NoObjectError
 from nct.run.pipeline import acquire
 from nct.select.candidates import SceneModel
-from nct.select.scene import Preparation, raced, set_up
+from nct.select.scene import Preparation, offered, raced, set_up
 from tests.conftest import load_benchmark as load
 
 S = load("scenes")
@@ -47,7 +47,7 @@ def run_setups(path, models) -> dict:
 
 def test_the_table_holds_what_a_run_prices(tmp_path):
     """Two still levels: the signals tell two objects from one; every model's residual read off the row is the
-    one a run computes, and the rule races what the run races (K = 1..2, for time)."""
+    one a run computes for the models it offers, and the rule races what the run races (K = 1..2, for time)."""
     path = two_levels(tmp_path / "two.npz")
     row = M.signals(M.SceneFile("two", "generalisation", path, "none", 2, "apart, static static, clean"), k_max=2)
     M.write_csv_rows([row], tmp_path / "signals.csv")
@@ -58,7 +58,8 @@ def test_the_table_holds_what_a_run_prices(tmp_path):
     (scene,) = R.read_scenes(tmp_path / "signals.csv")
     assert scene.truth == SceneModel(2, "none")
     models = [m for m in R.MODELS if m.n_objects <= 2]
-    setups = run_setups(path, models)
+    setups = {m: s for m, s in run_setups(path, models).items() if offered(s.found.ranked[0].masks, chosen=True)}
+    assert SceneModel(1, "image") not in setups  # nothing moves: objects over an image start empty, not offered
     for model in models:
         run = setups[model].judged if model in setups else math.nan
         assert R.judged(scene, model) == pytest.approx(run, rel=1e-9, nan_ok=True), model
@@ -74,29 +75,33 @@ def scene_of(none: list[float], image: list[float], lone: float | None = None, i
     return R.Scene("x", "generalisation", SceneModel(1), row)
 
 
-def test_an_object_or_a_background_must_pay_for_itself():
-    """With the product's prices (gain 0.8, ratio 1.5, margin 1.25): an added object must cut the residual to 0.8
-    of it, a background image to 1 / 1.5 of that; a runner-up within 1.25 of the proposal's price is raced too."""
-    assert R.raced(scene_of([0.1, 0.11, 0.11, 0.11], [0.5] * 4)) == [SceneModel(1)]
-    assert R.raced(scene_of([0.1, 0.09, 0.09, 0.09], [0.5] * 4)) == [SceneModel(1), SceneModel(2)]
+def test_an_object_must_pay_for_itself_over_each_background():
+    """With the product's price (gain 0.8) and margin (1.25): an added object must cut the residual to 0.8 of it;
+    over each background the cheapest is raced, the runner-up too within 1.25 of it, none first."""
+    assert R.raced(scene_of([0.1, 0.11, 0.11, 0.11], [0.5, 0.7, 0.7, 0.7])) == [SceneModel(1), SceneModel(1, "image")]
+    assert R.raced(scene_of([0.1, 0.09, 0.09, 0.09], [math.nan] * 4)) == [SceneModel(1), SceneModel(2)]
     two = [0.1, 0.04, 0.045, 0.045]  # K = 2 priced 0.0625 (0.04 / 0.8**2), K = 3 0.088, K = 1 0.125
-    assert R.raced(scene_of(two, [0.5] * 4)) == [SceneModel(2)]
-    assert R.raced(scene_of(two, [0.02, 0.03, 0.03, 0.03])) == [SceneModel(1, "image")]  # 0.0375
-    assert R.raced(scene_of(two, [0.04] * 4)) == [SceneModel(2), SceneModel(1, "image")]  # 0.075: within 1.25
-    assert R.raced(scene_of(two, [0.04] * 4), R.Rule(margin=1.0)) == [SceneModel(2)]
-    assert R.raced(scene_of(two, [0.04] * 4), R.Rule(ratio=1.0))[0] == SceneModel(1, "image")
-    assert SceneModel(2, "image") not in R.raced(scene_of([0.1] * 4, [0.01, math.nan, 0.01, 0.01]))
+    assert R.raced(scene_of(two, [math.nan] * 4)) == [SceneModel(2)]
+    assert R.raced(scene_of(two, [0.02, 0.03, 0.03, 0.03])) == [SceneModel(2), SceneModel(1, "image")]
+    assert R.raced(scene_of(two, [0.04, 0.04, 0.1, 0.1]), R.Rule(margin=1.0)) == [SceneModel(2),
+                                                                                   SceneModel(1, "image")]
+    assert R.raced(scene_of(two, [0.04, 0.04, 0.1, 0.1])) == [SceneModel(2), SceneModel(1, "image"),
+                                                              SceneModel(2, "image")]  # 0.05, 0.0625: within 1.25
+    assert R.k_right(R.Scene("x", "generalisation", SceneModel(2), scene_of(two, [0.5] * 4).row), R.Rule())
 
 
 def test_the_residuals_a_run_prices():
     """K = 1 without a background reads the compensated frames where the views hold a path; over an image, the
-    residual is relative to the views less the image's projection, as the judge there sees them."""
+    residual relative to the whole views, as every model's; a rim among several objects, or objects over an image
+    where nothing moves, are not offered."""
     scene = scene_of([0.3, 0.2, 0.19, 0.19], [0.02] * 4, lone=0.1, image0=0.25)
     assert R.judged(scene, SceneModel(1)) == 0.1 and R.judged(scene, SceneModel(2)) == 0.2
-    assert R.judged(scene, SceneModel(3, "image")) == pytest.approx(0.08)
+    assert R.judged(scene, SceneModel(3, "image")) == 0.02
     assert R.judged(scene_of([0.3] * 4, [0.02] * 4), SceneModel(1)) == 0.3
+    scene.row["inside_none2"] = "0.05"  # a rim: under MIN_INTERIOR of its pixels inside
+    assert math.isnan(R.judged(scene, SceneModel(2))) and R.judged(scene, SceneModel(3)) == 0.19
     scene.row["moving_share"] = "0"  # nothing moves: a run's objects over the image start empty
-    assert R.judged(scene, SceneModel(2, "image")) == 1.0
+    assert math.isnan(R.judged(scene, SceneModel(2, "image")))
 
 
 def test_rule_note_names_a_missing_table(tmp_path, capsys):
@@ -110,4 +115,4 @@ def test_rule_note_scores_a_table(tmp_path, capsys):
     scenes = [scene_of([0.1, 0.04, 0.045, 0.045], [0.5] * 4), scene_of([0.1, 0.11, 0.11, 0.11], [0.5] * 4)]
     note = R.report([R.Scene(f"s{i}", "generalisation", SceneModel(2), s.row) for i, s in enumerate(scenes)],
                     R.Rule(), "cmd")
-    assert "| generalisation | 2 | 1 (50%) | 1 (50%) |" in note and "**1 / 1**" in note
+    assert "| generalisation | 2 | 1 (50%) | 1 (50%) | 3.00 |" in note and "**1 / 1**" in note

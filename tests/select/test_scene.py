@@ -31,13 +31,15 @@ def test_an_object_must_earn_its_place(two, expected):
     assert labels([Judged(SceneModel(1), 0.1), Judged(SceneModel(2), two)]) == expected
 
 
-def test_a_background_image_must_cut_the_residual_by_half_again():
-    """The image model's own price is a factor 1.5; the runner-up is raced only within 1.25 of the cheapest."""
+def test_each_background_races_its_own_cheapest():
+    """The judge sets K over each background; the held-out views alone choose the background, so the cheapest
+    over each is raced however the two compare (with its runner-up within 1.25)."""
     plain = Judged(SceneModel(1), 0.1)
-    assert labels([plain, Judged(SceneModel(1, "image"), 0.09)]) == ["k1_none"]
-    assert labels([plain, Judged(SceneModel(1, "image"), 0.02)]) == ["k1_image"]
-    close = labels([plain, Judged(SceneModel(1, "image"), 0.06), Judged(SceneModel(3), 0.2)])
-    assert close == ["k1_none", "k1_image"]
+    assert labels([plain, Judged(SceneModel(1, "image"), 0.5)]) == ["k1_none", "k1_image"]
+    image = [Judged(SceneModel(1, "image"), 0.02), Judged(SceneModel(2, "image"), 0.0155)]
+    assert labels([plain, Judged(SceneModel(2), 0.2), *image]) == ["k1_none", "k1_image", "k2_image"]
+    assert labels([plain, Judged(SceneModel(1, "image"), 0.02), Judged(SceneModel(2, "image"), 0.01)]) == \
+        ["k1_none", "k2_image"]
 
 
 def test_a_rim_has_no_inside():

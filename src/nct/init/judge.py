@@ -43,13 +43,12 @@ def sinogram_judge(
 
     @torch.no_grad()
     def judge(masks: np.ndarray, signs: np.ndarray) -> tuple[float, np.ndarray]:
-        n = min(MAX_VIEWS, values.shape[0], max(1, MAX_PIXELS // masks[0].size))
-        pick = np.linspace(0, values.shape[0] - 1, n).round().astype(int)
+        pick = picked(values.shape[0], masks[0].size)
         nearest = torch.argmin((times[pick, None] - mask_times[None, :]).abs(), dim=1)
         columns = []
         for k in range(masks.shape[1]):
             frames = np.ascontiguousarray(masks[:, k])  # [F, H, W]
-            key = (n, hashlib.blake2b(frames.view(np.uint8)).digest())
+            key = (len(pick), hashlib.blake2b(frames.view(np.uint8)).digest())
             if key not in projected:
                 images = torch.from_numpy(frames).float()[nearest]  # [n, H, W]
                 projected[key] = project(images, angles[pick], geometry, extent).reshape(-1).double()
@@ -60,3 +59,15 @@ def sinogram_judge(
         return residual / max(float(np.linalg.norm(measured)), 1e-30), signs * a
 
     return judge
+
+
+def picked(n_views: int, n_pixels: int) -> np.ndarray:
+    """The indices of the views [n] the judge compares masks of ``n_pixels`` (K x H x W) with: spread evenly."""
+    n = min(MAX_VIEWS, n_views, max(1, MAX_PIXELS // n_pixels))
+    return np.linspace(0, n_views - 1, n).round().astype(int)
+
+
+def views_norm(values: torch.Tensor, n_pixels: int) -> float:
+    """The norm of the views ``values`` [V, n_bins] the judge compares masks of ``n_pixels`` with (`picked`): what a
+    judged residual is relative to."""
+    return float(torch.linalg.norm(values[picked(values.shape[0], n_pixels)].double()))

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
 import numpy as np
+import torch
 from scipy import ndimage
 
 from nct.acquisition.scanner import ImageGrid
@@ -18,12 +19,12 @@ from nct.fit.conf import HeldoutConf, LossConf
 from nct.fit.problem import Problem, prepare
 from nct.fit.session import Start
 from nct.init.conf import BackgroundConf, InitConf
+from nct.init.judge import views_norm
 from nct.init.starts import Found, Sought, search, sought
 from nct.select.candidates import BACKGROUND_ORDER, SceneModel
 
 MAX_OBJECTS = 4  # the most objects of distinct intensity a run proposes from the data (data.n_objects=auto)
 OBJECT_GAIN = 0.8  # the judge's price of an object: a model with one more must cut the residual to this share
-IMAGE_RATIO = 1.5  # ... and of a background image: it must cut the residual to 1 / this
 RACE_MARGIN = 1.25  # the runner-up is raced too where its price is within this factor of the proposal's
 # An object with fewer of its pixels inside it (its four neighbours in its mask too) is a partial-volume rim or a
 # streak, not an object: a model of several that needs one is not offered (the scene-model diagnostic's 101 files:
@@ -43,6 +44,7 @@ class SceneSetup:
     prob: Problem
     found: Found
     rng: np.random.Generator
+    scale: float = 1.0  # the judged residual times this is relative to the whole views (over a background: < 1)
     made: dict[int, Start] = field(default_factory=dict)
 
     @property
@@ -51,8 +53,10 @@ class SceneSetup:
 
     @property
     def judged(self) -> float:
-        """How well the best judged segmentation's masks explain the fitted views (judge.py: relative residual)."""
-        return self.found.ranked[0].misfit
+        """How well the best judged segmentation's masks explain the fitted views (judge.py's relative residual),
+        relative to the whole views for every model alike (over a background the judge compares what the image
+        leaves)."""
+        return self.found.ranked[0].misfit * self.scale
 
     def start(self, i: int) -> Start:
         """Start ``i`` (init/starts.Found.start), made once."""
@@ -98,15 +102,25 @@ def set_up(prepared: Preparation, scene: SceneModel, seed: int) -> SceneSetup:
     """The data (fit/problem.py) and the judged segmentations (init/starts.py) of one ``scene`` model, from the run's
     ``seed`` as a run of that model alone draws them."""
     rng = np.random.default_rng(seed)
-    return SceneSetup(scene, prepared.of(scene), search(prepared.where(scene), scene.n_objects, prepared.init, rng), rng)
+    prob, where = prepared.of(scene), prepared.where(scene)
+    found = search(where, scene.n_objects, prepared.init, rng)
+    scale = 1.0 if where.prob is prob else _share(where.prob, prob, scene.n_objects)
+    return SceneSetup(scene, prob, found, rng, scale)
+
+
+def _share(part: Problem, whole: Problem, n_objects: int) -> float:
+    """The norm of ``part``'s fitted views (what the judge compares K masks with there) over ``whole``'s."""
+    n_pixels, fitted = n_objects * whole.grid.size**2, torch.from_numpy(whole.fit_views)
+    whole_norm = views_norm(whole.views.values[fitted], n_pixels)
+    return views_norm(part.views.values[fitted], n_pixels) / max(whole_norm, 1e-30)
 
 
 def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> list[SceneSetup]:
     """The scene models the run's tournament compares, set up, simplest first: those the user's K and
     background allow (``data.n_objects`` auto: 1 ... ``MAX_OBJECTS``; ``background=auto``: none and an image),
-    each priced by how well its judged masks explain the views (``price``), those of several objects with a
-    rim among them (``MIN_INTERIOR``, where K is chosen) left out; the cheapest, and the runner-up where its price
-    is within ``RACE_MARGIN`` of it (the held-out views then choose)."""
+    each priced by how well its judged masks explain the views (``price``), those with an object not found or
+    (where K is chosen) a rim among several left out (``offered``); for each background the cheapest, and the
+    runner-up where its price is within ``RACE_MARGIN`` of it (``raced``: the held-out views then choose)."""
     name = prepared.background.name
     backgrounds = BACKGROUND_ORDER if name == "auto" else (name,)
     counts = range(1, MAX_OBJECTS + 1) if n_objects is None else (n_objects,)
@@ -117,22 +131,37 @@ def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> lis
         raise InputError("choosing the objects or the background from the data needs init.levels=sinogram (the "
                          "judge that prices them): set data.n_objects and background, or init.levels=sinogram")
     found = _found(prepared, models, seed)
-    bodies = [s for s in found if n_objects is not None or s.model.n_objects == 1
-              or interior(s.found.ranked[0].masks) >= MIN_INTERIOR]
-    return raced(bodies or found)
+    return raced([s for s in found if offered(s.found.ranked[0].masks, n_objects is None)] or found)
+
+
+def offered(masks: np.ndarray, chosen: bool) -> bool:
+    """Whether a model whose best judged segmentation draws ``masks`` [F, K, H, W] is priced: every object found
+    (over a background where nothing moves the objects start empty), and where K is ``chosen`` from the data, none
+    of several a rim (``MIN_INTERIOR``)."""
+    if not masks.any(axis=(0, 2, 3)).all():
+        return False
+    return not chosen or masks.shape[1] == 1 or interior(masks) >= MIN_INTERIOR
 
 
 def raced(setups: list[SceneSetup]) -> list[SceneSetup]:
-    """The cheapest of ``setups`` (``price``), and the runner-up where its price is within ``RACE_MARGIN`` of the
-    cheapest's, simplest first."""
-    return sorted(cheapest(setups, price), key=lambda s: s.model.simplicity)
+    """``cheapest_each`` background's of ``setups`` (``price``), simplest first."""
+    return sorted(cheapest_each(setups, lambda s: s.model.background, price), key=lambda s: s.model.simplicity)
+
+
+def cheapest_each(items: list[T], background: Callable[[T], str], priced: Callable[[T], float],
+                  margin: float = RACE_MARGIN) -> list[T]:
+    """For each background (``BACKGROUND_ORDER``), the `cheapest` of ``items`` over it. The judge sets K; which
+    background is for the held-out views alone: K uniform objects explain a textured body's views about as well
+    as an image under its moving parts (the scene-model table: with a price on the image, 2 of 9 textured files
+    proposed one)."""
+    return [i for b in BACKGROUND_ORDER for i in cheapest([i for i in items if background(i) == b], priced, margin)]
 
 
 def cheapest(items: list[T], priced: Callable[[T], float], margin: float = RACE_MARGIN) -> list[T]:
     """The cheapest of ``items`` by ``priced``, and the runner-up where its price is within ``margin`` (a factor)
     of the cheapest's, cheapest first (ties in ``items``' order): `raced`'s choice, also scored offline."""
     ranked = sorted(items, key=priced)
-    return [s for s in ranked[:2] if priced(s) <= priced(ranked[0]) + math.log(margin)]
+    return [s for s in ranked[:2] if priced(s) <= priced(ranked[0]) + math.log(margin)] if ranked else []
 
 
 def _found(prepared: Preparation, models: list[SceneModel], seed: int) -> list[SceneSetup]:
@@ -161,8 +190,7 @@ def price(setup: SceneSetup) -> float:
     return model_price(setup.judged, setup.model)
 
 
-def model_price(judged: float, model: SceneModel, gain: float = OBJECT_GAIN, ratio: float = IMAGE_RATIO) -> float:
+def model_price(judged: float, model: SceneModel, gain: float = OBJECT_GAIN) -> float:
     """The price of ``model`` whose best judged segmentation leaves the relative residual ``judged`` (judge.py): its
-    log, plus ``log(1 / gain)`` an object and ``log(ratio)`` for a background image (a model must earn its parts)."""
-    return (math.log(max(judged, 1e-12)) + model.n_objects * math.log(1 / gain)
-            + (model.background == "image") * math.log(ratio))
+    log, plus ``log(1 / gain)`` an object (a model must earn its objects)."""
+    return math.log(max(judged, 1e-12)) + model.n_objects * math.log(1 / gain)
