@@ -1,7 +1,8 @@
 """The product's choice of scene model (select/scene.py, issue 47) scored on scene_model.py's signals table.
 
-A run prices every scene model (K = 1..MAX_OBJECTS objects, no background or a background image) by its best
-judged segmentation's relative residual r to the whole views, ``model_price``:
+A run prices the scene models (K = 1..MAX_OBJECTS objects, no background or a background image; over each
+background fewest objects first, up to the first dearer than one before: ``up_to_dearer``) by their best judged
+segmentation's relative residual r to the whole views, ``model_price``:
 
     price = log r + K log(1 / OBJECT_GAIN)
 
@@ -39,6 +40,7 @@ from nct.select.scene import (
     RACE_MARGIN,
     cheapest_each,
     model_price,
+    up_to_dearer,
 )
 
 GAINS, MARGINS = (0.6, 0.7, 0.8, 0.9), (1.0, 1.25, 1.5, 2.0)  # the sensitivity grid
@@ -98,8 +100,13 @@ def judged(scene: Scene, model: SceneModel) -> float:
 
 
 def prices(scene: Scene, rule: Rule) -> dict[SceneModel, float]:
-    """Each model a run offers, priced (``model_price``)."""
-    return {m: model_price(r, m, rule.gain) for m in MODELS if math.isfinite(r := judged(scene, m))}
+    """The models a run prices (``up_to_dearer`` over each background; NaN: not offered), priced (``model_price``)."""
+    def priced(model: SceneModel) -> float | None:
+        r = judged(scene, model)
+        return model_price(r, model, rule.gain) if math.isfinite(r) else None
+
+    return {m: p for b in BACKGROUND_ORDER for m, p in up_to_dearer([m for m in MODELS if m.background == b],
+                                                                    priced).items()}
 
 
 def raced(scene: Scene, rule: Rule = Rule()) -> list[SceneModel]:

@@ -10,8 +10,8 @@ import pytest
 
 from nct.errors import NoObjectError
 from nct.run.pipeline import acquire
-from nct.select.candidates import SceneModel
-from nct.select.scene import Preparation, offered, raced, set_up
+from nct.select.candidates import BACKGROUND_ORDER, SceneModel
+from nct.select.scene import Preparation, offered, price, raced, set_up, up_to_dearer
 from tests.conftest import load_benchmark as load
 
 S = load("scenes")
@@ -63,7 +63,9 @@ def test_the_table_holds_what_a_run_prices(tmp_path):
     for model in models:
         run = setups[model].judged if model in setups else math.nan
         assert R.judged(scene, model) == pytest.approx(run, rel=1e-9, nan_ok=True), model
-    assert {s.model for s in raced(list(setups.values()))} == set(R.raced(scene))
+    prices = {m: p for b in BACKGROUND_ORDER for m, p in up_to_dearer(
+        [m for m in models if m.background == b], lambda m: price(setups[m]) if m in setups else None).items()}
+    assert set(raced(prices)) == set(R.raced(scene))
     assert R.raced(scene)[0] == SceneModel(2, "none")
 
 

@@ -2,25 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pytest
 
 from nct.select.candidates import SceneModel
-from nct.select.scene import interior, raced
+from nct.select.scene import interior, model_price, raced, up_to_dearer
 
 
-@dataclass
-class Judged:
-    """A scene model and its best judged residual: all that ``raced`` reads of a set-up."""
-
-    model: SceneModel
-    judged: float
-
-
-def labels(setups: list[Judged]) -> list[str]:
-    return [s.model.label for s in raced(setups)]
+def labels(judged: dict[SceneModel, float]) -> list[str]:
+    """The labels of the models ``raced`` among those with these judged residuals."""
+    return [m.label for m in raced({m: model_price(r, m) for m, r in judged.items()})]
 
 
 @pytest.mark.parametrize("two, expected", [(0.11, ["k1_none"]), (0.09, ["k1_none", "k2_none"]),
@@ -28,18 +19,30 @@ def labels(setups: list[Judged]) -> list[str]:
 def test_an_object_must_earn_its_place(two, expected):
     """An object is priced at a factor 1 / 0.8 of the residual: two objects that do not cut 0.1 leave one alone;
     within a factor 1.25 of the break-even 0.08 both are raced (the held-out views choose); 0.05 proposes two."""
-    assert labels([Judged(SceneModel(1), 0.1), Judged(SceneModel(2), two)]) == expected
+    assert labels({SceneModel(1): 0.1, SceneModel(2): two}) == expected
 
 
 def test_each_background_races_its_own_cheapest():
     """The judge sets K over each background; the held-out views alone choose the background, so the cheapest
     over each is raced however the two compare (with its runner-up within 1.25)."""
-    plain = Judged(SceneModel(1), 0.1)
-    assert labels([plain, Judged(SceneModel(1, "image"), 0.5)]) == ["k1_none", "k1_image"]
-    image = [Judged(SceneModel(1, "image"), 0.02), Judged(SceneModel(2, "image"), 0.0155)]
-    assert labels([plain, Judged(SceneModel(2), 0.2), *image]) == ["k1_none", "k1_image", "k2_image"]
-    assert labels([plain, Judged(SceneModel(1, "image"), 0.02), Judged(SceneModel(2, "image"), 0.01)]) == \
-        ["k1_none", "k2_image"]
+    plain = {SceneModel(1): 0.1}
+    assert labels(plain | {SceneModel(1, "image"): 0.5}) == ["k1_none", "k1_image"]
+    image = {SceneModel(1, "image"): 0.02, SceneModel(2, "image"): 0.0155}
+    assert labels(plain | {SceneModel(2): 0.2} | image) == ["k1_none", "k1_image", "k2_image"]
+    assert labels(plain | {SceneModel(1, "image"): 0.02, SceneModel(2, "image"): 0.01}) == ["k1_none", "k2_image"]
+
+
+def test_objects_are_priced_up_to_the_first_dearer_model():
+    """Fewest objects first: pricing stops after the first model dearer than the cheapest before it, or at one
+    not offered (None); those priced are kept."""
+    asked = []
+
+    def priced(k):
+        asked.append(k)
+        return {1: 3.0, 2: 2.0, 3: 2.5, 4: 1.0}[k]
+
+    assert up_to_dearer([1, 2, 3, 4], priced) == {1: 3.0, 2: 2.0, 3: 2.5} and asked == [1, 2, 3]
+    assert up_to_dearer([1, 2, 3], lambda k: None if k == 2 else 1.0) == {1: 1.0}
 
 
 def test_a_rim_has_no_inside():

@@ -4,7 +4,7 @@ for it and the starts found for it."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
@@ -118,9 +118,10 @@ def _share(part: Problem, whole: Problem, n_objects: int) -> float:
 def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> list[SceneSetup]:
     """The scene models the run's tournament compares, set up, simplest first: those the user's K and
     background allow (``data.n_objects`` auto: 1 ... ``MAX_OBJECTS``; ``background=auto``: none and an image),
-    each priced by how well its judged masks explain the views (``price``), those with an object not found or
-    (where K is chosen) a rim among several left out (``offered``); for each background the cheapest, and the
-    runner-up where its price is within ``RACE_MARGIN`` of it (``raced``: the held-out views then choose)."""
+    each priced by how well its judged masks explain the views (``price``; over each background fewest objects
+    first, up to the first dearer than one before: ``up_to_dearer``), those with an object not found or (where K
+    is chosen) a rim among several left out (``offered``); for each background the cheapest, and the runner-up
+    where its price is within ``RACE_MARGIN`` of it (``raced``: the held-out views then choose)."""
     name = prepared.background.name
     backgrounds = BACKGROUND_ORDER if name == "auto" else (name,)
     counts = range(1, MAX_OBJECTS + 1) if n_objects is None else (n_objects,)
@@ -130,8 +131,46 @@ def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> lis
     if prepared.init.levels != "sinogram":
         raise InputError("choosing the objects or the background from the data needs init.levels=sinogram (the "
                          "judge that prices them): set data.n_objects and background, or init.levels=sinogram")
-    found = _found(prepared, models, seed)
-    return raced([s for s in found if offered(s.found.ranked[0].masks, n_objects is None)] or found)
+    return _priced(prepared, backgrounds, counts, n_objects is None, seed)
+
+
+def _priced(prepared: Preparation, backgrounds: tuple[str, ...], counts: Sequence[int], chosen: bool,
+            seed: int) -> list[SceneSetup]:
+    """The models over each of ``backgrounds`` with ``counts`` objects, set up and priced in turn as `up_to_dearer`
+    asks (those not ``offered`` unpriced), then ``raced``; with none priced, the first one found, or the first
+    `NoObjectError`."""
+    setups, errors = {}, []
+
+    def priced(model: SceneModel) -> float | None:
+        try:
+            setups[model] = set_up(prepared, model, seed)
+        except NoObjectError as err:
+            errors.append(err)
+            return None
+        return price(setups[model]) if offered(setups[model].found.ranked[0].masks, chosen) else None
+
+    prices = {m: p for b in backgrounds for m, p in up_to_dearer([SceneModel(k, b) for k in counts], priced).items()}
+    if not prices:
+        if not setups:
+            raise errors[0]
+        return [next(iter(setups.values()))]
+    return [setups[m] for m in raced(prices)]
+
+
+def up_to_dearer(models: list[T], priced: Callable[[T], float | None]) -> dict[T, float]:
+    """``models`` (one background's, fewest objects first) priced in turn up to the first dearer than the cheapest
+    before it, or not priced (None: no such model there): more objects seldom pay where one more did not (the
+    scene-model table: the same truth raced on 84 of 101 files as with every K priced, 5.1 models judged per file
+    instead of 6.7)."""
+    prices: dict[T, float] = {}
+    for model in models:
+        p = priced(model)
+        if p is None:
+            break
+        prices[model] = p
+        if p > min(prices.values()):
+            break
+    return prices
 
 
 def offered(masks: np.ndarray, chosen: bool) -> bool:
@@ -143,9 +182,9 @@ def offered(masks: np.ndarray, chosen: bool) -> bool:
     return not chosen or masks.shape[1] == 1 or interior(masks) >= MIN_INTERIOR
 
 
-def raced(setups: list[SceneSetup]) -> list[SceneSetup]:
-    """``cheapest_each`` background's of ``setups`` (``price``), simplest first."""
-    return sorted(cheapest_each(setups, lambda s: s.model.background, price), key=lambda s: s.model.simplicity)
+def raced(prices: dict[SceneModel, float]) -> list[SceneModel]:
+    """``cheapest_each`` background's of the priced models, simplest first."""
+    return sorted(cheapest_each(list(prices), lambda m: m.background, prices.__getitem__), key=lambda m: m.simplicity)
 
 
 def cheapest_each(items: list[T], background: Callable[[T], str], priced: Callable[[T], float],
@@ -162,19 +201,6 @@ def cheapest(items: list[T], priced: Callable[[T], float], margin: float = RACE_
     of the cheapest's, cheapest first (ties in ``items``' order): `raced`'s choice, also scored offline."""
     ranked = sorted(items, key=priced)
     return [s for s in ranked[:2] if priced(s) <= priced(ranked[0]) + math.log(margin)] if ranked else []
-
-
-def _found(prepared: Preparation, models: list[SceneModel], seed: int) -> list[SceneSetup]:
-    """Each of ``models`` set up, those in which no object stands out left out (NoObjectError if none is left)."""
-    found = []
-    for model in models:
-        try:
-            found.append(set_up(prepared, model, seed))
-        except NoObjectError as err:
-            last = err
-    if not found:
-        raise last
-    return found
 
 
 def interior(masks: np.ndarray) -> float:
