@@ -211,6 +211,7 @@ class Tally:
 
 def tally(name: str, verdicts: Sequence[Verdict], warned: Callable[[Verdict], bool],
           justified: Callable[[Verdict], bool]) -> Tally:
+    """`Tally` of the finished runs among ``verdicts`` by the ``warned`` and ``justified`` tests."""
     scored = [v for v in verdicts if v.run.status == FINISHED]
     return Tally(name, len(scored), sum(map(warned, scored)), sum(map(justified, scored)),
                  sum(warned(v) and justified(v) for v in scored))
@@ -234,6 +235,7 @@ def outcome(v: Verdict, kind: str) -> str:
 
 
 def csv_row(v: Verdict) -> dict:
+    """warnings.csv's row: the run, its truth, its warned and justified kinds, each kind's `outcome`."""
     r = v.run
     return {"folder": r.folder, "scene": r.scene, "run": r.label, "status": r.status, "motions": " ".join(r.motions),
             "deg_per_rotation": " ".join(f"{d:g}" for d in r.deg_per_rotation), "rotations": r.rotations,
@@ -257,13 +259,19 @@ def report(verdicts: Sequence[Verdict], command: str) -> str:
         for folder in folders:
             mine = [v for v in verdicts if v.run.folder == folder]
             parts += [f"## {folder}", "", markdown_table(TALLY_HEADER, [t.row() for t in tallies(mine)]), ""]
-    runs = [[v.run.folder, v.run.scene, v.run.label, v.run.status, " ".join(v.run.motions),
-             " ".join(f"{d:g}" for d in v.run.deg_per_rotation), v.run.rotations, v.run.noise_i0 or "none",
-             v.run.nct_dice, v.run.fbp_dice, v.run.nct_mse, v.run.fbp_mse, "poor" if v.run.poor else "",
-             " ".join(sorted(v.warned)), " ".join(sorted(v.justified))] for v in verdicts]
-    return "\n".join(parts + ["## Runs", "", markdown_table(
-        ["folder", "scene", "run", "status", "motions", "deg/rot", "rot", "I0", "NCT Dice", "FBP Dice", "NCT MSE",
-         "FBP MSE", "fit", "warned", "justified"], runs), ""])
+    return "\n".join(parts + ["## Runs", "", markdown_table(RUN_HEADER, [run_cells(v) for v in verdicts]), ""])
+
+
+RUN_HEADER = ["folder", "scene", "run", "status", "motions", "deg/rot", "rot", "I0", "NCT Dice", "FBP Dice",
+              "NCT MSE", "FBP MSE", "fit", "warned", "justified"]
+
+
+def run_cells(v: Verdict) -> list:
+    """warnings.md's row for one run (`RUN_HEADER`)."""
+    r = v.run
+    return [r.folder, r.scene, r.label, r.status, " ".join(r.motions), " ".join(f"{d:g}" for d in r.deg_per_rotation),
+            r.rotations, f"{float(r.noise_i0):.2g}" if r.noise_i0 else "none", r.nct_dice, r.fbp_dice, r.nct_mse,
+            r.fbp_mse, "poor" if r.poor else "", " ".join(sorted(v.warned)), " ".join(sorted(v.justified))]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
