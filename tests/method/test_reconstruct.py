@@ -293,8 +293,8 @@ def test_rendered_disc_matches_closed_form_chords(geometry, k_samp):
     assert np.abs(sino.numpy() - expected).mean() / expected.mean() < {1: 0.012, 2: 0.007}[k_samp]
 
 
-@pytest.mark.parametrize("shape, offset", [("flat", 0.0), ("curved", 0.0), ("flat", 0.132)],
-                         ids=["flat", "curved", "flat-offset"])
+@pytest.mark.parametrize("shape, offset", [("curved", 0.0), ("flat", 0.132)],
+                         ids=["curved", "flat-offset"])  # a flat detector centred: the offset one with u shifted
 def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_margin(shape, offset):
     """Issue 11's bar at a small size: the circle experiment (100 deg/rotation) in fan beam, NCT
     Dice >= 0.93 and >= fan-beam FBP + 0.08. Measured (64^2, 180 views, 300 steps): NCT
