@@ -8,11 +8,11 @@ Shared by the method tests: a tiny model and short fits, and a tiny moving-disc 
 
 Shared by the geometry tests: every geometry the projector, simulation and FBP must handle, and
 the closed-form line integrals of ellipses along their rays, derived from the convention in
-``shared/DESIGN.md`` independently of ``nct.acquisition.geometry``.
+docs/DATA.md ("Geometry: parallel and fan beam") independently of ``nct.acquisition.geometry``.
 
 An independent reference projector for the tests: exact ray–pixel intersection lengths (Siddon's
 method) of a pixel image, along rays whose end points are derived here from the documented convention
-(docs/DATA.md "Geometry", ``shared/DESIGN.md`` "Geometry convention"), not from ``nct.acquisition.geometry``.
+(docs/DATA.md "Geometry: parallel and fan beam"), not from ``nct.acquisition.geometry``.
 
 Convention: a point (x, y), x right, y up, origin at the image centre; pixel (row, col) of N covers
 x in [col, col + 1]·extent/N − extent/2 and y in [N − row − 1, N − row]·extent/N − extent/2. At view

@@ -1,6 +1,6 @@
 """Acquisition geometry: where the ray of every detector bin runs, for parallel and fan beam.
 
-Convention (``shared/DESIGN.md``, "Geometry convention"): at view angle θ let
+Convention (docs/DATA.md, "Geometry: parallel and fan beam"): at view angle θ let
 d = (−sin θ, cos θ) and e = (cos θ, sin θ). Bin i has detector coordinate
 u_i = (i − (n_bins − 1)/2)·bin_spacing + detector_offset.
 
