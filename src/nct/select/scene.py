@@ -125,9 +125,8 @@ def scene_setups(prepared: Preparation, n_objects: int | None, seed: int) -> lis
     name = prepared.background.name
     backgrounds = BACKGROUND_ORDER if name == "auto" else (name,)
     counts = range(1, MAX_OBJECTS + 1) if n_objects is None else (n_objects,)
-    models = [SceneModel(k, b) for b in backgrounds for k in counts]
-    if len(models) == 1:
-        return [set_up(prepared, models[0], seed)]
+    if len(backgrounds) * len(counts) == 1:
+        return [set_up(prepared, SceneModel(counts[0], backgrounds[0]), seed)]
     if prepared.init.levels != "sinogram":
         raise InputError("choosing the objects or the background from the data needs init.levels=sinogram (the "
                          "judge that prices them): set data.n_objects and background, or init.levels=sinogram")
