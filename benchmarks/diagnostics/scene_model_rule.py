@@ -7,7 +7,9 @@ segmentation's relative residual r to the whole views, ``model_price``:
     price = log r + K log(1 / OBJECT_GAIN)
 
 and, for each background, races the cheapest and the runner-up too where its price is within a factor
-RACE_MARGIN of it (``cheapest_each``); the held-out views then choose. Here the same functions and constants,
+RACE_MARGIN of it (``cheapest_each``), over an image only where the image earns its place (``image_earned``: its
+start alone leaves at most OBJECT_GAIN of the views, ``r_image0``, or the cheapest model over it is priced at
+most OBJECT_GAIN of the cheapest plain one); the held-out views then choose. Here the same functions and constants,
 imported from nct.select.scene, read each model's r off the table as the run computes it (`judged`). Scored
 against the truth's model (signals.csv's ``background`` and ``n_objects``, read only here): per group, the
 truth's K the cheapest over its background (the judge's part) and the truth among the raced (what the held-out
@@ -38,8 +40,8 @@ from nct.select.scene import (
     MIN_INTERIOR,
     OBJECT_GAIN,
     RACE_MARGIN,
-    cheapest_each,
     model_price,
+    raced,
     up_to_dearer,
 )
 
@@ -109,10 +111,10 @@ def prices(scene: Scene, rule: Rule) -> dict[SceneModel, float]:
                                                                     priced).items()}
 
 
-def raced(scene: Scene, rule: Rule = Rule()) -> list[SceneModel]:
-    """The models a run races (`nct.select.scene.cheapest_each` of the priced ones), no background first."""
-    priced = prices(scene, rule)
-    return cheapest_each(list(priced), lambda m: m.background, priced.__getitem__, rule.margin)
+def race(scene: Scene, rule: Rule = Rule()) -> list[SceneModel]:
+    """The models a run races (`nct.select.scene.raced`: the cheapest of each background's priced ones, over an
+    image only where it earns its place, ``r_image0`` what its start alone leaves), simplest first."""
+    return raced(prices(scene, rule), scene.value("r_image0"), rule.gain, rule.margin)
 
 
 def k_right(scene: Scene, rule: Rule) -> bool:
@@ -152,7 +154,7 @@ def accuracy_table(scenes: Sequence[Scene], rule: Rule) -> str:
     models raced per file (what the race costs)."""
     rows = []
     for label, mine in groups(scenes):
-        picks = [raced(s, rule) for s in mine]
+        picks = [race(s, rule) for s in mine]
         rows.append([label, len(mine), share(sum(k_right(s, rule) for s in mine), len(mine)),
                      share(sum(s.truth in p for s, p in zip(mine, picks)), len(mine)),
                      f"{np.mean([len(p) for p in picks]):.2f}" if picks else "–"])
@@ -165,8 +167,8 @@ def named(models: list[SceneModel]) -> str:
 
 def files_table(scenes: Sequence[Scene], rule: Rule) -> str:
     """Every file outside the generalisation benchmark: the truth's model, those raced, whether the truth is."""
-    rows = [[s.name, s.category, s.row["detail"], named([s.truth]), named(raced(s, rule)),
-             "yes" if s.truth in raced(s, rule) else "no"]
+    rows = [[s.name, s.category, s.row["detail"], named([s.truth]), named(race(s, rule)),
+             "yes" if s.truth in race(s, rule) else "no"]
             for s in scenes if s.category != "generalisation"]
     return markdown_table(["file", "category", "detail", "truth", "raced", "truth raced"], rows)
 
@@ -178,16 +180,16 @@ def residuals(scene: Scene, background: str) -> str:
 
 def misses_table(scenes: Sequence[Scene], rule: Rule) -> str:
     """Every file whose truth is not raced, with the residuals the run prices."""
-    rows = [[s.name, s.row["detail"], named([s.truth]), named(raced(s, rule)), s.value("level_gap"),
+    rows = [[s.name, s.row["detail"], named([s.truth]), named(race(s, rule)), s.value("level_gap"),
              residuals(s, "none"), residuals(s, "image"), s.value("moving_share")]
-            for s in scenes if s.truth not in raced(s, rule)]
+            for s in scenes if s.truth not in race(s, rule)]
     return markdown_table(["file", "detail", "truth", "raced", "level gap", "r none K=1..4", "r image K=1..4",
                            "moving share"], rows)
 
 
 def confusion_table(scenes: Sequence[Scene], rule: Rule) -> str:
     """The misses' pairs (the truth's model, those raced) by count."""
-    pairs = Counter((named([s.truth]), named(raced(s, rule))) for s in scenes if s.truth not in raced(s, rule))
+    pairs = Counter((named([s.truth]), named(race(s, rule))) for s in scenes if s.truth not in race(s, rule))
     return markdown_table(["truth", "raced", "files"], [[t, p, n] for (t, p), n in pairs.most_common()])
 
 
@@ -199,7 +201,7 @@ def sensitivity_table(scenes: Sequence[Scene], rule: Rule) -> str:
         cells = []
         for margin in MARGINS:
             other = replace(rule, gain=gain, margin=margin)
-            cell = f"{sum(k_right(s, other) for s in scenes)} / {sum(s.truth in raced(s, other) for s in scenes)}"
+            cell = f"{sum(k_right(s, other) for s in scenes)} / {sum(s.truth in race(s, other) for s in scenes)}"
             cells.append(f"**{cell}**" if other == rule else cell)
         rows.append([f"{gain:g}", *cells])
     return markdown_table(["gain", *(f"margin {m:g}" for m in MARGINS)], rows)
@@ -233,8 +235,9 @@ def report(scenes: Sequence[Scene], rule: Rule, command: str) -> str:
     return "\n".join([
         f"# The scene model a run races, on the signals table ({rule})", "", f"Command: `{command}`", "",
         "price = log r + K log(1/gain), r the judged residual a run prices (scene_model_rule.py's `judged`); for each "
-        "background the cheapest is raced, the runner-up too where within a factor `margin` (nct.select.scene's "
-        "model_price and cheapest_each); the held-out views choose among them.", "",
+        "background the cheapest is raced, the runner-up too where within a factor `margin`, over an image only where "
+        "the image cuts the views (its start alone, r_image0) or the cheapest plain model's price to `gain` "
+        "(nct.select.scene's model_price, cheapest_each and image_earned); the held-out views choose among them.", "",
         "## Accuracy", "", accuracy_table(scenes, rule), "",
         "## Files outside the generalisation benchmark", "", files_table(scenes, rule), "",
         "## Misses (the truth not raced)", "", misses_table(scenes, rule), "", confusion_table(scenes, rule), "",

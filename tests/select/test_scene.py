@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 from nct.select.candidates import SceneModel
-from nct.select.scene import interior, model_price, raced, up_to_dearer
+from nct.select.scene import image_earned, interior, model_price, raced, up_to_dearer
 
 
-def labels(judged: dict[SceneModel, float]) -> list[str]:
-    """The labels of the models ``raced`` among those with these judged residuals."""
-    return [m.label for m in raced({m: model_price(r, m) for m, r in judged.items()})]
+def labels(judged: dict[SceneModel, float], left: float = 0.3) -> list[str]:
+    """The labels of the models ``raced`` among those with these judged residuals, an image's start alone leaving
+    ``left`` of the views."""
+    return [m.label for m in raced({m: model_price(r, m) for m, r in judged.items()}, left)]
 
 
 @pytest.mark.parametrize("two, expected", [(0.11, ["k1_none"]), (0.09, ["k1_none", "k2_none"]),
@@ -30,6 +31,18 @@ def test_each_background_races_its_own_cheapest():
     image = {SceneModel(1, "image"): 0.02, SceneModel(2, "image"): 0.0155}
     assert labels(plain | {SceneModel(2): 0.2} | image) == ["k1_none", "k1_image", "k2_image"]
     assert labels(plain | {SceneModel(1, "image"): 0.02, SceneModel(2, "image"): 0.01}) == ["k1_none", "k2_image"]
+
+
+def test_an_image_must_earn_its_place():
+    """An image is raced where its start alone cuts the views to 0.8 of them, or where the cheapest model over it
+    is priced at 0.8 of the cheapest plain one or less (a still object K missed); else it only soaks up misfit."""
+    plain, image = {SceneModel(1): 0.02}, {SceneModel(1, "image"): 0.02}
+    assert labels(plain | image, left=0.8) == ["k1_none", "k1_image"]
+    assert labels(plain | image, left=0.81) == ["k1_none"]
+    assert labels(plain | {SceneModel(1, "image"): 0.016}, left=0.99) == ["k1_none", "k1_image"]
+    assert labels(plain | {SceneModel(1, "image"): 0.017}, left=0.99) == ["k1_none"]
+    assert image_earned(0.99, {m: model_price(0.02, m) for m in image})  # a user's background=image: none plain
+    assert not image_earned(0.1, {m: model_price(0.02, m) for m in plain})  # no model over an image priced
 
 
 def test_objects_are_priced_up_to_the_first_dearer_model():
