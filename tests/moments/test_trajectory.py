@@ -68,7 +68,7 @@ def test_a_path_holds_a_mover_in_parallel_beam_only(name):
 
 def test_the_verdict_is_determined_at_100_deg_and_undetermined_at_300_deg_per_rotation():
     """issue 27: 100°/rot over one rotation not warned, 300°/rot warned (benchmarks/trajectory.py:
-    0.22 px and 7.6 px against the 1 px threshold)."""
+    0.22 px and 7.6 px against the 4 px limit)."""
     verdicts = {}
     for deg in (100.0, 300.0):
         sino, _, pixel = circle(deg)

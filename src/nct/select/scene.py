@@ -208,7 +208,7 @@ def raced(prices: dict[SceneModel, float], left: float, gain: float = OBJECT_GAI
 def image_earned(left: float, prices: dict[SceneModel, float], gain: float = OBJECT_GAIN) -> bool:
     """Whether the models over an image priced (``prices``) are raced: an image, like an object, must cut a
     residual to ``gain`` of it: the whole views' by its start alone (``left`` of them remains; files with an
-    image in the scene-model table leave 0.09-0.31), or the plain models' by the models over it (the cheapest's
+    image in the scene-model table leave 0.085-0.31), or the plain models' by the models over it (the cheapest's
     price lower by log(1 / gain); a static object beside a mover that K missed). Where neither holds the image
     only soaks up misfit: the default circle raced one to its end (0.96x the plain model's held-out misfit), the
     letters chose one at 0.013 Dice below the plain model."""
