@@ -15,7 +15,6 @@ from nct.run.config import validate
 from nct.run.job import run_job
 from nct.run.pipeline import acquire
 
-
 # The circle at 300 deg/rotation as the trajectory benchmark scans it (128 px, 720 views): 7.6 px, a poor fit
 FAST = ("phantom.displacement_deg=300", "image.size=128", "scanner.n_bins=128", "scanner.views_per_rotation=720")
 
