@@ -54,12 +54,21 @@ def scored(row: dict) -> Run:
                row.get("noise_i0", ""))
 
 
+def file_row(row: dict, spread: float, seconds: float) -> dict:
+    """motion_warning.csv's row: the scenes.csv ``row``'s scores, the file's ``spread`` (px) and whether a warning
+    is justified there (an object's centre moves and the fit is poor)."""
+    run = scored(row)
+    return {"scene": row["scene"], "motions": row["motions"], "spread_px": spread, "nct_dice": run.nct_dice,
+            "fbp_dice": run.fbp_dice, "poor": run.poor, "justified": run.moves(CENTRE_MOVES) and run.poor,
+            "seconds": seconds}
+
+
 def limits_table(rows: Sequence[dict]) -> str:
     """Per candidate limit: files, warned, justified (centre moves and the fit is poor), false alarms, misses."""
     out = []
+    justified = [r["justified"] for r in rows]
     for limit in LIMITS_PX:
         warned = [r["spread_px"] > limit for r in rows]
-        justified = [r["justified"] for r in rows]
         hits = sum(w and j for w, j in zip(warned, justified))
         out.append([f"{limit:g}", len(rows), sum(warned), sum(justified), sum(warned) - hits,
                     sum(justified) - hits])
@@ -79,11 +88,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = []
     with threadpool_limits(1):
         for r in table:
-            run, started = scored(r), time.perf_counter()
+            started = time.perf_counter()
             spread = spread_px(args.files / f"{r['scene']}.npz")
-            rows.append({"scene": r["scene"], "motions": r["motions"], "spread_px": spread,
-                         "nct_dice": run.nct_dice, "fbp_dice": run.fbp_dice, "poor": run.poor,
-                         "justified": run.moves(CENTRE_MOVES) and run.poor, "seconds": time.perf_counter() - started})
+            rows.append(file_row(r, spread, time.perf_counter() - started))
     write_csv(rows, args.out / "motion_warning.csv")
     command = "python " + " ".join([Path(sys.argv[0]).as_posix(), *(argv if argv is not None else sys.argv[1:])])
     widest = sorted(rows, key=lambda r: -r["spread_px"])[:10]
