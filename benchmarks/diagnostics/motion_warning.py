@@ -85,6 +85,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(f"motion_warning: error: {args.scores}: no such table")
     with open(args.scores, newline="") as fh:
         table = [r for r in csv.DictReader(fh) if (args.files / f"{r['scene']}.npz").is_file()]
+    if not table:
+        raise SystemExit(f"motion_warning: error: {args.files}: holds no <scene>.npz of {args.scores}")
     rows = []
     with threadpool_limits(1):
         for r in table:

@@ -6,6 +6,7 @@ import csv
 import math
 
 import numpy as np
+import pytest
 
 from tests.conftest import load_benchmark
 
@@ -45,3 +46,11 @@ def test_spreads_of_written_files(tmp_path):
     assert written["scene"] == scene.name and abs(float(written["spread_px"])) < 0.05
     assert math.isfinite(float(written["spread_px"])) and (tmp_path / "out" / "motion_warning.md").is_file()
     assert np.isclose(float(written["nct_dice"]), 0.99)
+
+
+def test_a_folder_without_the_tables_files_is_named(tmp_path, capsys):
+    scores = tmp_path / "scenes.csv"
+    scores.write_text("scene,motions,nct_dice,fbp_dice,nct_mse,fbp_mse\nx,orbit,1,1,0,0\n")
+    with pytest.raises(SystemExit) as stop:
+        MW.main(["--files", str(tmp_path / "none"), "--scores", str(scores), "--out", str(tmp_path / "out")])
+    assert "none" in str(stop.value) and "no <scene>.npz" in str(stop.value) and not (tmp_path / "out").exists()
