@@ -1,19 +1,22 @@
 """Would the tournament's milestones have stopped the eventual winner? Replays runs whose fits all ran to
 the end (``--override motion.first_budget=1``: no milestones) through the tournament's schedule with
-``--margin`` (``motion.milestone_margin``) and prints, per run, each fit it would stop (where, how far
-behind what it needed, its final held-out misfit against the best) and whether the winner changes.
+``--margin`` (``motion.milestone_margin``) and ``--scene-budget`` (``motion.scene_budget``) and prints, per
+run, each fit it would stop (where, how far behind what it needed, its final held-out misfit against the
+best), whether the winner changes and, where the run's folder holds the scene's truth (a generalisation
+benchmark's scenes.csv), whether the winner's K is the truth's.
 
 Fits are independent (each candidate's own random streams), so a replayed run chooses as the run with
 milestones would have, and where it chooses the same winner its reconstruction is the same.
 
     python benchmarks/generalisation.py --size 128 --subset --jobs 2 --threads 1 --out outputs/noprune \
         --override motion.first_budget=1
-    python benchmarks/diagnostics/milestones.py outputs/noprune --margin 0 0.05
+    python benchmarks/diagnostics/milestones.py outputs/noprune --margin 0 0.05 --scene-budget 0.25 0.5
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 from pathlib import Path
@@ -48,10 +51,11 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
     return steps, every, out
 
 
-def replay(steps: int, every: int, ran: list, margin: float) -> tuple[str, int, list[str]]:
-    """The winner, the steps fitted and a line per stopped fit, were the milestones at ``margin``."""
+def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float) -> tuple[Candidate, int, list[str]]:
+    """The winner, the steps fitted and a line per stopped fit, were the milestones at ``margin`` and scene
+    models compared from ``scene_budget`` on."""
     tournament = Tournament(steps, every, SelectionConf(rungs=list(RUNGS), first_budget=FIRST_BUDGET,
-                                                       milestone_margin=margin))
+                                                       milestone_margin=margin, scene_budget=scene_budget))
     best = min((m for *_, m in ran if math.isfinite(m)), default=math.inf)
     used, lines = 0, []
     for cand, history, done, misfit in ran:
@@ -65,16 +69,27 @@ def replay(steps: int, every: int, ran: list, margin: float) -> tuple[str, int, 
         lines.append(f"  {cand.name} stopped at step {step}, {loss / tournament.to_win_at(cand, step) - 1:+.1%} "
                      f"behind; it would have ended at {misfit:.4g} ({misfit / best - 1:+.1%} against the best)")
         tournament.record(cand, history[:cut], step, loss)
-    return tournament.verdict().winner.name, used, lines
+    return tournament.verdict().winner, used, lines
+
+
+def truth_models(root: Path) -> dict[str, SceneModel]:
+    """Each scene's model (its objects, no background) from a generalisation folder's scenes.csv; {} without."""
+    table = root / "scenes.csv"
+    if not table.exists():
+        return {}
+    with table.open(newline="") as f:
+        return {row["scene"]: SceneModel(int(row["n_objects"])) for row in csv.DictReader(f)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("root", type=Path, help="a benchmark's output folder (its runs' metrics.json below it)")
     parser.add_argument("--margin", type=float, nargs="+", default=[0.0, 0.05], help="milestone margins to replay")
+    parser.add_argument("--scene-budget", type=float, nargs="+", default=[0.5],
+                        help="shares of the steps from which scene models are compared to replay")
     args = parser.parse_args()
-    if min(args.margin) < 0:
-        parser.exit(2, f"milestones: error: --margin must be >= 0, got {min(args.margin)}\n")
+    if min(args.margin) < 0 or not all(0 <= b <= 1 for b in args.scene_budget):
+        parser.exit(2, "milestones: error: --margin must be >= 0 and --scene-budget in [0, 1]\n")
     try:
         runs = {p.parent: fits(p.parent) for p in sorted(args.root.rglob("metrics.json"))}
     except ValueError as err:
@@ -82,15 +97,28 @@ def main() -> None:
     runs = {run: found for run, found in runs.items() if found is not None}
     if not runs:
         parser.exit(2, f"milestones: error: no run with a tournament (metrics.json -> selection) below {args.root}\n")
+    truth = truth_models(args.root)
+    settings = [(m, b) for m in args.margin for b in args.scene_budget]
+    totals = {key: [0, 0, 0] for key in [None, *settings]}  # steps, the winner unchanged, the truth's model chosen
     for run, (steps, every, ran) in runs.items():
         if any(done < steps for _, _, done, m in ran if math.isfinite(m)):
             parser.exit(2, f"milestones: error: {run} stopped fits early: rerun it with motion.first_budget=1\n")
-        everyone = replay(steps, 0, ran, 0.0)
-        print(f"{run.relative_to(args.root)}: {len(ran)} fits, all finished: {everyone[0]} ({everyone[1]} steps)")
-        for margin in args.margin:
-            winner, used, lines = replay(steps, every, ran, margin)
-            same = "the same winner" if winner == everyone[0] else f"{winner} wins instead"
-            print(f" margin {margin:g}: {same}, {used} steps", *lines, sep="\n")
+        model = truth.get(run.parent.name)
+        everyone = replay(steps, 0, ran, 0.0, 0.0)
+        print(f"{run.relative_to(args.root)}: {len(ran)} fits, all finished: {everyone[0].name} ({everyone[1]} steps)"
+              + (f"; the truth's model {model.label}" if model else ""))
+        for key in [None, *settings]:
+            winner, used, lines = everyone if key is None else replay(steps, every, ran, *key)
+            totals[key] = [totals[key][0] + used, totals[key][1] + (winner == everyone[0]),
+                           totals[key][2] + (winner.scene == model)]
+            if key is not None:
+                same = "the same winner" if winner == everyone[0] else f"{winner.name} wins instead"
+                print(f" margin {key[0]:g}, scene budget {key[1]:g}: {same}, {used} steps", *lines, sep="\n")
+    print(f"\n{len(runs)} runs" + (", the truth's model known" if truth else ""))
+    for key, (used, same, right) in totals.items():
+        name = "no milestones" if key is None else f"margin {key[0]:g}, scene budget {key[1]:g}"
+        print(f" {name}: {used} steps, the winner of no milestones on {same}"
+              + (f", the truth's model on {right}" if truth else ""))
 
 
 if __name__ == "__main__":

@@ -280,10 +280,38 @@ def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     steps, every, ran = milestones.fits(tmp_path)
     assert (steps, every, len(ran)) == (1000, 100, 2)
-    assert milestones.replay(steps, 0, ran, 0.0)[:2] == ("free_start1", 2000)
-    winner, used, lines = milestones.replay(steps, every, ran, 0.0)
-    assert (winner, used) == ("free", 1300) and "free_start1 stopped at step 300, +3.0% behind" in lines[0]
-    assert milestones.replay(steps, every, ran, 0.05)[:3] == ("free_start1", 2000, [])
+    assert milestones.replay(steps, 0, ran, 0.0, 0.5)[0].name == "free_start1"
+    winner, used, lines = milestones.replay(steps, every, ran, 0.0, 0.5)
+    assert (winner.name, used) == ("free", 1300) and "free_start1 stopped at step 300, +3.0% behind" in lines[0]
+    winner, used, lines = milestones.replay(steps, every, ran, 0.05, 0.5)
+    assert (winner.name, used, lines) == ("free_start1", 2000, [])
+
+
+def test_milestones_replays_the_scene_budget_against_the_truth(tmp_path, capsys, monkeypatch):
+    """Three objects 50 % behind two at step 300 that end 30 % ahead: stopped where scene models are compared
+    from the first milestone (K = 2 wins, not the truth's), racing on from half the steps (K = 3, the truth's)."""
+    milestones = load("diagnostics/milestones")
+    two = [[100 * (i + 1), 1.0] for i in range(10)]
+    three = [[100 * (i + 1), 1.5 if i < 3 else 0.7] for i in range(10)]
+    model = {"background": "none", "rung": "free", "f_max": None, "turning": None, "restart": False, "start": 0}
+    metrics = {"selection": {"table": [{"candidate": "k2_none_free", "n_objects": 2, **model, "steps": 1000,
+                                        "heldout_misfit": 1.0},
+                                       {"candidate": "k3_none_free", "n_objects": 3, **model, "steps": 1000,
+                                        "heldout_misfit": 0.7}]},
+               "stages": {"k2_none_free_fit": {"planned_steps": 1000, "heldout_history": two},
+                          "k3_none_free_fit": {"planned_steps": 1000, "heldout_history": three}}}
+    run = tmp_path / "runs" / "scene007" / "nct"
+    run.mkdir(parents=True)
+    (run / "metrics.json").write_text(json.dumps(metrics))
+    (tmp_path / "scenes.csv").write_text("scene,n_objects\nscene007,3\n")
+    monkeypatch.setattr("sys.argv", ["milestones", str(tmp_path), "--margin", "0.05", "--scene-budget", "0.25", "0.5"])
+    milestones.main()
+    out = capsys.readouterr().out
+    assert "all finished: k3_none_free (2000 steps); the truth's model k3_none" in out
+    assert "scene budget 0.25: k2_none_free wins instead, 1300 steps" in out
+    assert "scene budget 0.5: the same winner, 2000 steps" in out
+    assert "margin 0.05, scene budget 0.25: 1300 steps, the winner of no milestones on 0, the truth's model on 0" in out
+    assert "margin 0.05, scene budget 0.5: 2000 steps, the winner of no milestones on 1, the truth's model on 1" in out
 
 
 def test_milestones_refuses_a_table_without_the_candidates_models(tmp_path, capsys, monkeypatch):

@@ -114,13 +114,14 @@ def test_no_finished_candidate_is_an_error():
 @pytest.mark.parametrize("kwargs, key", [({"rungs": []}, "motion.rungs"), ({"rungs": ["wobbly"]}, "motion.rungs"),
                                          ({"rungs": ["free", "free"]}, "motion.rungs"),
                                          ({"first_budget": 0}, "first_budget"), ({"tolerance": -0.1}, "motion.tolerance"), ({"milestone_margin": -0.01}, "motion.milestone_margin"),
-                                         ({"band_f_max": 0.0}, "motion.band_f_max")])
+                                         ({"band_f_max": 0.0}, "motion.band_f_max"),
+                                         ({"scene_budget": 1.5}, "motion.scene_budget")])
 def test_bad_settings_are_named(kwargs, key):
     with pytest.raises(ValueError, match=key):
         SelectionConf(**kwargs)
 
 
-K1, K2, K2_IMAGE = SceneModel(1), SceneModel(2), SceneModel(2, "image")
+K1, K2, K3, K2_IMAGE = SceneModel(1), SceneModel(2), SceneModel(3), SceneModel(2, "image")
 
 
 def test_scene_models_are_compared_at_the_same_rung_by_the_scene_tolerance():
@@ -129,11 +130,26 @@ def test_scene_models_are_compared_at_the_same_rung_by_the_scene_tolerance():
     t = Tournament(1000, 100, replace(CONF, scene_tolerance=0.1))
     t.record(Candidate(K1, "free"), history([1.0] * 10), 1000, 1.0)
     two = Candidate(K2, "free")
-    assert t.stops(two)(history([0.95] * 3)) and not t.stops(two)(history([0.9] * 3))
-    assert not t.stops(Candidate(K2, "static"))(history([9.0] * 3))  # K1's free fit says nothing of K2's static
+    assert t.stops(two)(history([0.95] * 5)) and not t.stops(two)(history([0.9] * 5))
+    assert not t.stops(Candidate(K2, "static"))(history([9.0] * 5))  # K1's free fit says nothing of K2's static
     t2 = Tournament(1000, 100, replace(CONF, scene_tolerance=0.1))
     t2.record(Candidate(K2_IMAGE, "free"), history([1.0] * 10), 1000, 1.0)
-    assert not t2.stops(Candidate(K2, "free"))(history([1.09] * 3)) and t2.stops(Candidate(K2, "free"))(history([1.11] * 3))
+    assert not t2.stops(Candidate(K2, "free"))(history([1.09] * 5)) and t2.stops(Candidate(K2, "free"))(history([1.11] * 5))
+
+
+def test_scene_models_are_compared_from_the_scene_budget_on():
+    """Before ``scene_budget`` x steps a fit is not stopped for trailing another scene model (a model with more
+    objects starts further from its end), only for trailing its own model's candidates."""
+    t = Tournament(1000, 100, replace(CONF, scene_tolerance=0.1, scene_budget=0.5))
+    t.record(Candidate(K1, "free"), history([1.0] * 10), 1000, 1.0)
+    t.record(Candidate(K2, "free"), history([3.0] * 10), 1000, 3.0)
+    two = Candidate(K2, "free", start=1)
+    assert not t.stops(Candidate(K3, "free"))(history([9.0] * 3))  # step 300: no scene model compared yet
+    assert t.stops(Candidate(K3, "free"))(history([9.0] * 5))  # step 500: far behind K1's
+    assert t.stops(two)(history([4.0] * 3))  # its own model's start, 33 % ahead, is compared from the first
+    early = Tournament(1000, 100, replace(CONF, scene_budget=0.0))
+    early.record(Candidate(K1, "free"), history([1.0] * 10), 1000, 1.0)
+    assert early.stops(Candidate(K3, "free"))(history([9.0] * 3))
 
 
 def test_the_simplest_scene_model_within_its_tolerance_wins_then_its_simplest_rung():

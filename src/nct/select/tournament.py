@@ -5,7 +5,8 @@ no fit sees. Successive halving, run sequentially (as Optuna's pruner does): the
 schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops where,
 were the misfits to stay as they stand there, parsimony would not choose it: above (1 + ``tolerance``) x
 a freer model's misfit, above a candidate's of its own model, or above a simpler model's over
-(1 + ``tolerance``), each by more than ``milestone_margin`` (a near tie so early is no forecast). So a fit
+(1 + ``tolerance``), each by more than ``milestone_margin`` (a near tie so early is no forecast); another
+scene model's only from ``scene_budget`` x steps on (more objects start further from their end). So a fit
 that cannot win costs only the steps to its first losing milestone. Parsimony then picks the model: the
 simplest whose best finished candidate (over its starts and restarts) is within (1 + ``tolerance``) of
 the best, and that candidate wins. The table
@@ -87,18 +88,19 @@ class Tournament:
         bounds = []
         for e in self.entries:
             seen = self._at(e.history, step) if e.steps >= step else None
-            factor = self._factor(candidate, e.candidate)
+            factor = self._factor(candidate, e.candidate, step)
             if seen is not None and factor is not None:
                 bounds.append(seen * factor)
         return min(bounds, default=math.inf)
 
-    def _factor(self, candidate: Candidate, other: Candidate) -> float | None:
-        """How far above ``other``'s misfit ``candidate``'s may lie and still win (parsimony): within a scene
-        model by the rungs' ``tolerance``, between scene models (at the same rung and band) by ``scene_tolerance``;
-        None where the two are not compared (other scene model and rung)."""
+    def _factor(self, candidate: Candidate, other: Candidate, step: int) -> float | None:
+        """How far above ``other``'s misfit ``candidate``'s may lie at ``step`` and still win (parsimony): within a
+        scene model by the rungs' ``tolerance``, between scene models (at the same rung and band, from
+        ``scene_budget`` x steps on) by ``scene_tolerance``; None where the two are not compared (other scene model
+        and rung, or too early)."""
         if other.scene == candidate.scene:
             a, b, tolerance = other.simplicity, candidate.simplicity, self.conf.tolerance
-        elif other.simplicity == candidate.simplicity:
+        elif other.simplicity == candidate.simplicity and step >= self.conf.scene_budget * self.steps:
             a, b, tolerance = other.scene.simplicity, candidate.scene.simplicity, self.conf.scene_tolerance
         else:
             return None
