@@ -146,7 +146,7 @@ def test_scene_models_are_compared_from_the_scene_budget_on():
     two = Candidate(K2, "free", start=1)
     assert not t.stops(Candidate(K3, "free"))(history([9.0] * 3))  # step 300: no scene model compared yet
     assert t.stops(Candidate(K3, "free"))(history([9.0] * 5))  # step 500: far behind K1's
-    assert t.stops(two)(history([4.0] * 3))  # its own model's start, 33 % ahead, is compared from the first
+    assert t.stops(two)(history([4.0] * 3))  # 33 % behind its own model's other start: compared from the first
     early = Tournament(1000, 100, replace(CONF, scene_budget=0.0))
     early.record(Candidate(K1, "free"), history([1.0] * 10), 1000, 1.0)
     assert early.stops(Candidate(K3, "free"))(history([9.0] * 3))
