@@ -1,6 +1,6 @@
 """One tournament for every choice the method makes from data (motion rung, temporal band, start, restart).
 
-Candidates are fitted one after another, simplest first, and scored on the held-out views, which
+Candidates are fitted one after another (race.fit_order) and scored on the held-out views, which
 no fit sees. Successive halving, run sequentially (as Optuna's pruner does): the milestones of the
 schedule (milestones) are at ``first_budget`` x steps, twice that, ... ; at each milestone a fit stops where,
 were the misfits to stay as they stand there, parsimony would not choose it: above (1 + ``tolerance``) x
