@@ -15,4 +15,3 @@ def test_a_band_is_fitted_right_after_its_starts_free_fit():
     assert list(started) == ["rigid", "rigid_start1", "free", "free_start1", "free_band", "free_band_start1"]
     order = fit_order(pool, {c: started[c.name] for c in pool})
     assert [c.name for c in order] == ["free_start1", "free_band_start1", "free", "free_band", "rigid_start1", "rigid"]
-
