@@ -65,7 +65,7 @@ class Race:
         way."""
         for cand in pool:
             self.start(cand)
-        queue = fit_order(pool, {c: started[0] for c, started in self.started.items()})
+        queue = fit_order(pool, {c: misfit for c, (misfit, *_) in self.started.items()})
         while queue:
             cand = queue.pop(0)
             prob = self.by_model[cand.scene].prob
