@@ -148,6 +148,23 @@ def test_held_centres_are_not_fitted():
     assert field.pose.grad[:2].abs().max() == 0 and field.pose.grad[2].abs().max() > 0
 
 
+def test_a_held_siren_template_is_rendered_over_its_reach_only():
+    """A held object's template lattice has ``resolution`` points per field of view over its reach (fewer points
+    a step), a free one's ``resolution`` a side; a reloaded field renders the same lattice and the same g."""
+    times = torch.linspace(0, 1, 6)
+    masks = np.zeros((6, 1, 32, 32), dtype=bool)
+    masks[:, :, 10:20, 12:16] = True
+    field = moved(family="siren", n_objects=1)
+    assert field.side == 16 and field.on_lattice(8).template.shape == (1, 1, 16, 16)
+    field.start_motion(replace(mask_sightings(masks, times), held=True))
+    assert field.side == math.ceil(16 * float(field.extent[0])) and 2 <= field.side < 16
+    assert field.on_lattice(8).template.shape == (1, 1, field.side, field.side)
+    reloaded = moved(family="siren", n_objects=1)
+    reloaded.load_state_dict(field.state_dict())
+    assert reloaded.side == field.side
+    torch.testing.assert_close(reloaded.sdf(reloaded.on_lattice(8), times), field.sdf(field.on_lattice(8), times))
+
+
 @pytest.mark.parametrize("family", ["grid", "siren"])
 def test_tiny_rigid_reconstruction_runs_and_moves_the_disc(family):
     """The disc of the tiny acquisition orbits 60 deg/rotation: the rigid fit's centres follow it."""

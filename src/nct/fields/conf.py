@@ -27,7 +27,8 @@ class ModelConf:
     half the resolution of the one before, summed (grid). temporal_resolution: cells per side of
     the finest grid of Fourier coefficients (grid); motion is smooth, so it can be coarse. A moved
     template spans twice the field of view: on grids of twice these cells per side (grid), or a
-    SIREN rendered on resolution x resolution points (siren; fields/moved.py).
+    SIREN rendered on resolution points per field of view over its reach, at most resolution a
+    side (siren; fields/moved.py).
     carry_resolution: pixels per field of view of the lattice on which a carried free field renders
         its shape, over its object's reach only, at most this many a side (fields/free.py): 64, the
         density and the most points of an uncarried field's first-pass lattice (optim.coarse_size).

@@ -15,6 +15,7 @@ view's rays that the data cannot see, which turns with the gantry at one cycle p
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
@@ -43,13 +44,15 @@ class Lattice:
 
 class MovedTemplate(SpaceTimeField):
     """A template per object moved by smooth poses (module docstring), the template a SIREN
-    rendered once per step on model.resolution^2 points and looked up bilinearly at the moved
-    points (a SIREN at every moved point costs ~6x more per step); so g is one function of x
-    whatever the lattice. Template k covers [-SPAN, SPAN]^2 about its centre (2-px pitch at 128 px);
-    one whose centre is held (``Sightings``) covers its object's reach only (``start_motion``): the
-    circle's disc gets a 0.5-px pitch (circle at 100 deg/rotation, rigid: 0.998, 0.931 at SPAN). Beyond it
-    the lookup holds its border (outside the object, so g < 0 there). A free centre keeps SPAN: at
-    the finer pitch the vessel over a background drifted 12 px along the rays (0.24 against 0.87).
+    rendered once per step on a side x side lattice and looked up bilinearly at the moved points (a
+    SIREN at every moved point costs ~6x more per step); so g is one function of x whatever the
+    lattice. Template k covers [-SPAN, SPAN]^2 about its centre; one whose centre is held
+    (``Sightings``) covers its object's reach only (``start_motion``; circle at 100 deg/rotation,
+    rigid: 0.998, 0.931 at SPAN). Beyond it the lookup holds its border (outside the object, so g < 0
+    there). A free centre keeps SPAN: at the finer pitch the vessel over a background drifted 12 px
+    along the rays (0.24 against 0.87). The lattice holds ``model.resolution`` points per field of
+    view over what the templates cover, at most ``resolution`` a side (``side``): a held circle's disc
+    gets 71 a side at 128 (a 1-px pitch at 128 px) where 128 cost 1.8x the free field's step.
 
     dg/dt (``sdf_rate``) is zero: the poses' smoothness is in their basis, and the tv_time term on
     a moving template would penalise the motion itself (|dg/dt| is the boundary's speed), not a
@@ -61,11 +64,25 @@ class MovedTemplate(SpaceTimeField):
         self.motion = motion
         self.n_basis = series_terms(conf, span)
         self.template = self.make_template(conf, n_objects)
-        self.side = conf.resolution
+        self.resolution = conf.resolution
         self.pose = nn.Parameter(torch.zeros(len(POSE[motion]), n_objects, self.n_basis))
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("extent", torch.full((n_objects,), SPAN))
         self.register_buffer("held", torch.zeros(len(POSE[motion]), dtype=torch.bool))  # pose series not fitted
+        self._read_extent()
+        self.register_load_state_dict_post_hook(_reread_extent)
+
+    def _read_extent(self) -> None:
+        """Mirror the templates' reach as the Python side of their lattice (``side``): reading a buffer on a
+        GPU waits for every queued kernel, and every step renders the lattice."""
+        self._side = max(2, math.ceil(self.resolution * min(float(self.extent.max()), 1.0) - 1e-6))
+
+    @property
+    def side(self) -> int:
+        """Points a side of the lattice the templates are rendered on: ``model.resolution`` per field of view
+        over the share of it they cover (``extent``), at most ``resolution``; from the buffer, so a reloaded
+        field has its own."""
+        return self._side
 
     @staticmethod
     def make_template(conf: ModelConf, n_objects: int) -> nn.Module:
@@ -129,6 +146,7 @@ class MovedTemplate(SpaceTimeField):
         self.held[:2] = seen.held
         if seen.held:  # a free centre keeps SPAN: at a finer pitch it drifted along the rays (docstring)
             self.extent.copy_(seen.cover().clamp(max=SPAN))
+        self._read_extent()
 
     def describe(self) -> dict:
         """Capacity summary: the rung, parameter count, pose terms."""
@@ -154,6 +172,11 @@ class GridMovedTemplate(MovedTemplate):
 
     def lookup(self, c: Lattice, q: Tensor) -> Tensor:
         return self.template.each(q / self.extent[:, None, None])
+
+
+def _reread_extent(field: MovedTemplate, _keys) -> None:
+    """After a field's state is loaded, mirror its templates' reach again (``MovedTemplate._read_extent``)."""
+    field._read_extent()
 
 
 def moved_template(conf: ModelConf, motion: str, n_objects: int, span: float) -> MovedTemplate:
