@@ -52,7 +52,8 @@ class MovedTemplate(SpaceTimeField):
     there). A free centre keeps SPAN: at the finer pitch the vessel over a background drifted 12 px
     along the rays (0.24 against 0.87). The lattice holds ``model.resolution`` points per field of
     view over what the templates cover, at most ``resolution`` a side (``side``): a held circle's disc
-    gets 71 a side at 128 (a 1-px pitch at 128 px) where 128 cost 1.8x the free field's step.
+    gets 71 a side (a 1-px pitch at 128 px): a rigid step 29 ms on one thread, the free field's 26-31,
+    where 128 a side took 57 at the same Dice (benchmarks/results/rungs).
 
     dg/dt (``sdf_rate``) is zero: the poses' smoothness is in their basis, and the tv_time term on
     a moving template would penalise the motion itself (|dg/dt| is the boundary's speed), not a
