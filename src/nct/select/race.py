@@ -118,11 +118,23 @@ def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int
 
 def fit_order(pool: list[Candidate], started: dict[Candidate, float]) -> list[Candidate]:
     """``pool`` in the order its fits run: from the best-started on (``started``: each candidate's InitFit misfit,
-    those of earlier rounds too), a band right after its start's free fit. A wider band fits InitFit's FBP frames better
-    whatever the motion (a still scene: 0.069 against 0.174, both fits ending at 0.019), so the band ran first and to
-    its end where it loses; after the free fit it stops at the first milestone unless it heads for parsimony's bound
-    (benchmarks/results/generalisation/band_order)."""
-    return sorted(pool, key=lambda c: (started[replace(c, f_max=None)], int(c.f_max is not None)))
+    those of earlier rounds too), a relaxation right after the model it relaxes (`relaxed`), which sets the bound
+    that stops it at its first milestone unless it heads for parsimony's. A wider band fits InitFit's FBP frames
+    better whatever the motion (a still scene: 0.069 against 0.174, both fits ending at 0.019), so it ran first and
+    to its end where it loses (benchmarks/results/generalisation/band_order); rigid and affine InitFits fit the same
+    template to the same start, so which of them went first was their SIREN's draw (benchmarks/results/rungs)."""
+    def base(cand: Candidate) -> Candidate:
+        return relaxed(cand) if relaxed(cand) in started else cand
+
+    return sorted(pool, key=lambda c: (started[base(c)], int(base(c) != c)))
+
+
+def relaxed(cand: Candidate) -> Candidate:
+    """The candidate ``cand`` relaxes from the same start: a band its free fit, an affine fit its rigid one (the
+    affine poses start as the rigid's); itself where it relaxes none."""
+    if cand.f_max is not None:
+        return replace(cand, f_max=None)
+    return replace(cand, rung="rigid") if cand.rung == "affine" else cand
 
 
 def _pool(setup: SceneSetup, motion: SelectionConf, named: bool) -> list[Candidate]:
