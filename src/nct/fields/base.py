@@ -70,6 +70,12 @@ class SpaceTimeField(nn.Module):
         self.log_intensities = nn.Parameter(torch.zeros(n_objects))
         self.register_buffer("signs", torch.ones(n_objects))
         self.register_parameter("background", None)
+        self.register_load_state_dict_post_hook(_reread_buffers)
+
+    def read_buffers(self) -> None:
+        """Mirror the buffers that choose what a step computes as Python values (none here): reading a
+        buffer on a GPU waits for every queued kernel, and a step asks for them each time. Called again
+        whenever a state is loaded, so a reloaded field has its own."""
 
     @property
     def intensities(self) -> Tensor:
@@ -102,6 +108,11 @@ class SpaceTimeField(nn.Module):
     def start_motion(self, seen: Sightings) -> None:
         """Start the field's motion where the objects were ``seen`` (fields/moved.py); the static field has
         none, the free one carries a lone object along its held path (``Field``)."""
+
+
+def _reread_buffers(field: SpaceTimeField, _keys) -> None:
+    """After a field's state is loaded, mirror its buffers again (``SpaceTimeField.read_buffers``)."""
+    field.read_buffers()
 
 
 class MultiGrid(nn.Module):

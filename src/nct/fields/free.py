@@ -15,7 +15,7 @@ from torch import Tensor, nn
 
 from nct.fields.base import Coefficients, MultiGrid, Siren, SpaceTimeField
 from nct.fields.conf import ModelConf
-from nct.fields.lattice import interpolation_on_pixels, lattice_points, pixel_centres
+from nct.fields.lattice import interpolation_on_pixels, lattice_points, pixel_centres, reach_side
 from nct.fields.series import legendre, legendre_fit, on_scan, series_terms
 from nct.fields.sightings import Sightings
 
@@ -59,15 +59,13 @@ class Field(SpaceTimeField):
         self.register_buffer("turn", torch.zeros(self.n_carry))  # phi(t)'s series, rad
         self.register_buffer("turned", torch.tensor(False))
         self.register_buffer("turned_object", torch.tensor(0))  # k, the object that turns with phi
-        self._read_motion()
-        self.register_load_state_dict_post_hook(_reread_motion)
+        self.read_buffers()
 
-    def _read_motion(self) -> None:
-        """Mirror the motion buffers that choose what a step computes as Python values: reading a
-        buffer on a GPU waits for every queued kernel, and a step asks for them each time."""
+    def read_buffers(self) -> None:
+        """Mirror the motion buffers (``SpaceTimeField.read_buffers``)."""
         self._carried, self._turned = bool(self.carried), bool(self.turned)
         self._turned_object = int(self.turned_object)
-        self._side = max(2, math.ceil(self.carry_resolution * min(float(self.extent), 1.0) - 1e-6))
+        self._side = reach_side(self.carry_resolution, float(self.extent))
 
     @property
     def side(self) -> int:
@@ -96,7 +94,7 @@ class Field(SpaceTimeField):
             self.turn.copy_(legendre_fit(s, angles - angles.mean(), self.n_carry)[:, 0])
             self.turned.fill_(True)
             self.turned_object.fill_(seen.turned)
-        self._read_motion()
+        self.read_buffers()
 
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
@@ -207,11 +205,6 @@ class Field(SpaceTimeField):
             "turned": self._turned,
             "turned_object": self._turned_object if self._turned else None,
         }
-
-
-def _reread_motion(field: Field, _keys) -> None:
-    """After a field's state is loaded, mirror its motion buffers again (``Field._read_motion``)."""
-    field._read_motion()
 
 
 class GridField(Field):

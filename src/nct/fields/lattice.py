@@ -7,10 +7,18 @@ and move or upsample what they render through these.
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import torch
 from torch import Tensor
+
+
+def reach_side(per_view: int, extent: float) -> int:
+    """Points a side of a lattice with ``per_view`` points per field of view (which spans [-1, 1]) over
+    +- ``extent`` about a centre: at most ``per_view`` (a lattice over an object's reach renders no more
+    points than one over the image), at least 2."""
+    return max(2, math.ceil(per_view * min(extent, 1.0) - 1e-6))
 
 
 @lru_cache(maxsize=16)

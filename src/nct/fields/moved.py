@@ -15,7 +15,6 @@ view's rays that the data cannot see, which turns with the gantry at one cycle p
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import torch
@@ -24,7 +23,7 @@ from torch import Tensor, nn
 
 from nct.fields.base import MultiGrid, Siren, SpaceTimeField
 from nct.fields.conf import ModelConf
-from nct.fields.lattice import lattice_points
+from nct.fields.lattice import lattice_points, reach_side
 from nct.fields.series import legendre, legendre_fit, on_scan, series_terms
 from nct.fields.sightings import Sightings
 
@@ -70,13 +69,11 @@ class MovedTemplate(SpaceTimeField):
         self.register_buffer("span", torch.tensor(float(span)))
         self.register_buffer("extent", torch.full((n_objects,), SPAN))
         self.register_buffer("held", torch.zeros(len(POSE[motion]), dtype=torch.bool))  # pose series not fitted
-        self._read_extent()
-        self.register_load_state_dict_post_hook(_reread_extent)
+        self.read_buffers()
 
-    def _read_extent(self) -> None:
-        """Mirror the templates' reach as the Python side of their lattice (``side``): reading a buffer on a
-        GPU waits for every queued kernel, and every step renders the lattice."""
-        self._side = max(2, math.ceil(self.resolution * min(float(self.extent.max()), 1.0) - 1e-6))
+    def read_buffers(self) -> None:
+        """Mirror the templates' reach as their lattice's side (``SpaceTimeField.read_buffers``)."""
+        self._side = reach_side(self.resolution, float(self.extent.max()))
 
     @property
     def side(self) -> int:
@@ -147,7 +144,7 @@ class MovedTemplate(SpaceTimeField):
         self.held[:2] = seen.held
         if seen.held:  # a free centre keeps SPAN: at a finer pitch it drifted along the rays (docstring)
             self.extent.copy_(seen.cover().clamp(max=SPAN))
-        self._read_extent()
+        self.read_buffers()
 
     def describe(self) -> dict:
         """Capacity summary: the rung, parameter count, pose terms."""
@@ -173,11 +170,6 @@ class GridMovedTemplate(MovedTemplate):
 
     def lookup(self, c: Lattice, q: Tensor) -> Tensor:
         return self.template.each(q / self.extent[:, None, None])
-
-
-def _reread_extent(field: MovedTemplate, _keys) -> None:
-    """After a field's state is loaded, mirror its templates' reach again (``MovedTemplate._read_extent``)."""
-    field._read_extent()
 
 
 def moved_template(conf: ModelConf, motion: str, n_objects: int, span: float) -> MovedTemplate:

@@ -124,7 +124,8 @@ def fit_order(pool: list[Candidate], started: dict[Candidate, float]) -> list[Ca
     to its end where it loses (benchmarks/results/generalisation/band_order); rigid and affine InitFits fit the same
     template to the same start, so which of them went first was their SIREN's draw (benchmarks/results/rungs)."""
     def base(cand: Candidate) -> Candidate:
-        return relaxed(cand) if relaxed(cand) in started else cand
+        relaxes = relaxed(cand)
+        return relaxes if relaxes in started else cand
 
     return sorted(pool, key=lambda c: (started[base(c)], int(base(c) != c)))
 
