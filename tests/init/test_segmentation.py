@@ -12,11 +12,12 @@ import time
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from nct.acquisition.scanner import ImageGrid
 from nct.errors import NoObjectError
 from nct.init.otsu import OTSU_WORK, otsu_bins, otsu_levels
-from nct.init.segmentation import segment
+from nct.init.segmentation import fill_holes, segment
 from nct.run.metrics import dice
 from tests.conftest import LONGER, OPTIM, fit_composed, orbit, still, two_object_frames
 
@@ -143,6 +144,20 @@ def test_a_nodule_in_a_lung_in_a_body_nests_in_the_lung_alone():
     np.testing.assert_allclose(seg.intensities[order], [1.0, -0.75, 1.75], atol=0.05)
     for k, truth in zip(order, (body, lung, nodule)):
         assert dice(seg.masks[:, k], np.stack([truth] * 4)).min() > 0.97
+
+
+def test_holes_are_filled_as_scipy_fills_each_image():
+    """One labelling of a stack fills each image as scipy does one at a time: a hole stays a hole only within its
+    own image (a background part touching the edge in the next image does not open it), rings and edges included."""
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        shape = (*rng.integers(1, 5, size=2), *rng.integers(1, 24, size=2))
+        masks = ndimage.binary_dilation(rng.random(shape) < rng.random() * 0.6)
+        expected = np.stack([ndimage.binary_fill_holes(m) for m in masks.reshape(-1, *shape[-2:])]).reshape(shape)
+        np.testing.assert_array_equal(fill_holes(masks), expected)
+    ring = np.zeros((2, 7, 7), bool)
+    ring[0, 1:6, 1:6], ring[0, 2:5, 2:5] = True, False  # a ring in the first image, nothing in the second
+    assert fill_holes(ring)[0, 3, 3] and not fill_holes(ring)[1].any()
 
 
 def test_each_candidate_is_judged_once():

@@ -15,9 +15,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
-from scipy.ndimage import binary_dilation, binary_fill_holes, label
+from scipy.ndimage import binary_dilation, label
 
 from nct.fit.problem import Problem
+from nct.init.segmentation import fill_holes
 from nct.moments.compensation import compensated_frames, focused_path
 from nct.moments.trajectory import centroid_path, steady_mass, view_masses
 from nct.physics.projector import project
@@ -56,7 +57,7 @@ def moving_region(frames: np.ndarray, share: float) -> np.ndarray:
     with it): [H, W] bool, empty for a still scene."""
     spread = frames.std(axis=0)
     edges = spread > edge_threshold(frames, spread, share)
-    return binary_fill_holes(binary_dilation(edges | still_middles(frames, edges), iterations=WIDEN_PX))
+    return fill_holes(binary_dilation(edges | still_middles(frames, edges), iterations=WIDEN_PX))
 
 
 def edge_threshold(frames: np.ndarray, spread: np.ndarray, share: float) -> float:
