@@ -1,11 +1,19 @@
-"""The stages' loss terms: the balanced L1 of InitFit weighs an object's inside as much as its outside."""
+"""The stages' loss terms: the balanced L1 of InitFit weighs an object's inside as much as its outside; a still
+field's step draws one frame."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import torch
 
-from nct.fit.stages import balanced_l1
+from nct.acquisition.geometry import ParallelGeometry
+from nct.acquisition.scanner import ImageGrid
+from nct.fields.build import build_field
+from nct.fit.conf import LossConf, RenderConf
+from nct.fit.stages import SinogramFit, Views, balanced_l1
+from tests.conftest import MODEL, OPTIM
 
 
 def test_balanced_l1_weighs_inside_and_outside_equally():
@@ -15,3 +23,18 @@ def test_balanced_l1_weighs_inside_and_outside_equally():
     everywhere_outside = -torch.ones(1, 1, 4, 4)
     assert float(balanced_l1(everywhere_outside, targets)) == pytest.approx(0.5 * (2.0 + 0.0))
     assert float((everywhere_outside - targets).abs().mean()) == pytest.approx(2 / 16)  # what plain L1 gave
+
+
+@pytest.mark.parametrize("rung", ["static", "free"])
+def test_a_still_field_is_drawn_once_for_every_view(rung):
+    """A static field's step draws one frame and sees it at every view's angle: the same views, to rounding, as
+    drawing it once per view; a moving field draws a frame per view."""
+    grid, n_views = ImageGrid(24), 6
+    field = build_field(MODEL, 2, torch.Generator().manual_seed(0), rung)
+    times = torch.linspace(0, 1, n_views)
+    views = Views(torch.rand(n_views, 24), times * 2 * math.pi, times, ParallelGeometry(24, 1 / 24))
+    stage = SinogramFit(field, grid, OPTIM, RenderConf(), LossConf(), views, steps=10)
+    drawn, every = stage.drawn_sdf(times), stage.grid_sdf(times)
+    assert drawn.shape[0] == (1 if rung == "static" else n_views) and every.shape[0] == n_views
+    band, which = 2 * grid.pixel_size, torch.arange(n_views)
+    torch.testing.assert_close(stage.render(drawn, which, band), stage.render(every, which, band))

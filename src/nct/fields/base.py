@@ -78,6 +78,11 @@ class SpaceTimeField(nn.Module):
         whenever a state is loaded, so a reloaded field has its own."""
 
     @property
+    def still(self) -> bool:
+        """Whether g is the same at every time (the static rung): a step then draws one frame for all its views."""
+        return False
+
+    @property
     def intensities(self) -> Tensor:
         """a(k) [K]."""
         return self.signs * self.log_intensities.exp()

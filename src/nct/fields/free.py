@@ -96,6 +96,11 @@ class Field(SpaceTimeField):
             self.turned_object.fill_(seen.turned)
         self.read_buffers()
 
+    @property
+    def still(self) -> bool:
+        """Without temporal terms g is g_E alone, at every time (``sdf``)."""
+        return self.temporal is None
+
     @staticmethod
     def spatial(conf: ModelConf, n_out: int, temporal: bool) -> nn.Module:
         """The module mapping points [P, 2] to ``n_out`` values [P, n_out]: a SIREN here."""

@@ -50,7 +50,8 @@ def project_frames(
     k_samp: int = 1,
     background: Tensor | None = None,
 ) -> Tensor:
-    """Render frame t at view angle t along ``geometry``'s rays: sdf [T, K, H, W], angles [T] -> views [T, n_bins].
+    """Render frame t at view angle t along ``geometry``'s rays: sdf [T, K, H, W], angles [T] -> views [T, n_bins];
+    one frame (T = 1) is drawn once and seen at every angle.
 
     ``k_samp`` > 1 upsamples the SDF bilinearly, draws the occupancy on the finer grid and
     averages ``k_samp`` rays per detector bin (the paper's supersampling and average pooling).
@@ -61,4 +62,4 @@ def project_frames(
     if k_samp > 1:
         sdf = F.interpolate(sdf, scale_factor=k_samp, mode="bilinear", align_corners=False)
     images = intensity(sdf, intensities, band, mu, background)
-    return project(images, angles, geometry, extent, bin_samples=k_samp)
+    return project(images.expand(angles.shape[0], -1, -1), angles, geometry, extent, bin_samples=k_samp)

@@ -64,7 +64,7 @@ def balanced_l1(sdf: Tensor, targets: Tensor) -> Tensor:
     """Mean |sdf - targets| with the inside (targets > 0) and the outside weighted equally, per
     object: a small object's few inside pixels would otherwise lose to the background, and a
     field negative everywhere (the object lost, with no gradient to bring it back) would fit well.
-    sdf, targets: [T, K, H, W]."""
+    sdf: [T, K, H, W] (or one frame [1, K, H, W] against every target), targets: [T, K, H, W]."""
     err = (sdf - targets).abs()
     inside = (targets > 0).to(err.dtype)
     dims = (0, 2, 3)
@@ -105,6 +105,12 @@ class FieldStage(L.LightningModule):
         frames = self.field.sdf(c, times).reshape(times.shape[0], self.field.n_objects, n, n)
         return upsample(frames, self.grid.size) if n < self.grid.size else frames
 
+    def drawn_sdf(self, times: Tensor, c: Coefficients | None = None) -> Tensor:
+        """The SDF frames a step draws at ``times`` [T]: `grid_sdf`'s [T, K, H, W], or for a still field its one
+        frame [1, K, H, W], which serves every time (a static model's step then draws, upsamples and regularises
+        one frame, not one per view)."""
+        return self.grid_sdf(times[:1] if self.field.still else times, c)
+
     def log_due(self, values: dict[str, Tensor]) -> None:
         """Log ``values`` on the steps the Trainer writes (its count starts at 1) and the last step
         only: Lightning's bookkeeping of logged values costs about as much as a coarse step."""
@@ -144,7 +150,7 @@ class InitFit(FieldStage):
         return [{"params": self.field.frame_parameters(), "name": "field"}]
 
     def training_step(self, batch: Tensor, batch_idx: int) -> Tensor:
-        sdf = self.grid_sdf(self.times[batch])
+        sdf = self.drawn_sdf(self.times[batch])
         sdf_misfit = balanced_l1(sdf, self.targets[batch]) / self.grid.pixel_size
         eikonal = eikonal_loss(*spatial_gradient(sdf, self.grid.pixel_size))
         loss = sdf_misfit + self.loss_conf.init_eikonal * eikonal
@@ -189,7 +195,8 @@ class SinogramFit(FieldStage):
         return band_at(self.global_step, self.steps, self.render_conf) * self.grid.pixel_size
 
     def render(self, sdf: Tensor, views: Tensor, band: float) -> Tensor:
-        """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] at the angles of ``views`` [v]."""
+        """Sinogram views [v, n_bins] of SDF frames [v, K, H, W] (or one frame [1, K, H, W] for all) at the angles
+        of ``views`` [v]."""
         return project_frames(sdf, self.intensities, self.angles[views], self.geometry, self.grid.extent, band,
                               self.render_conf.mu, self.render_conf.k_samp, self.field.background)
 
@@ -197,7 +204,7 @@ class SinogramFit(FieldStage):
         band = self.band()
         times = self.times[batch]
         c = self.field.on_lattice(self.lattice)
-        sdf = self.grid_sdf(times, c)
+        sdf = self.drawn_sdf(times, c)
         rate = self.field.sdf_rate(c, times) / self.grid.extent  # dg/dt [T, K, P], FOV sides per rotation: tv_time's
         sinogram = misfit(self.render(sdf, batch, band), self.values[batch],
                           None if self.sigma is None else self.sigma[batch], self.scale)
@@ -219,7 +226,7 @@ class SinogramFit(FieldStage):
         """|rendered - measured| summed over each view's bins, with the final band, over the data's
         scale: [v] for ``views`` [v]."""
         band = self.render_conf.band_px * self.grid.pixel_size
-        sdf = self.grid_sdf(self.times[views])
+        sdf = self.drawn_sdf(self.times[views])
         return (self.render(sdf, views, band) - self.values[views]).abs().sum(-1) / self.scale
 
     def misfit_sum(self, views: Tensor) -> Tensor:
