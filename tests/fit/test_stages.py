@@ -12,7 +12,7 @@ from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid
 from nct.fields.build import build_field
 from nct.fit.conf import LossConf, RenderConf
-from nct.fit.stages import SinogramFit, Views, balanced_l1
+from nct.fit.stages import SinogramFit, Views, balanced_l1, weighted
 from tests.conftest import MODEL, OPTIM
 
 
@@ -38,3 +38,17 @@ def test_a_still_field_is_drawn_once_for_every_view(rung):
     assert drawn.shape[0] == (1 if rung == "static" else n_views) and every.shape[0] == n_views
     band, which = 2 * grid.pixel_size, torch.arange(n_views)
     torch.testing.assert_close(stage.render(drawn, which, band), stage.render(every, which, band))
+
+
+def test_a_term_of_weight_zero_stays_out_of_the_graph():
+    """A weight-0 regulariser is not computed on a step that does not log it, and without gradient on one that does;
+    the others add weight x term to the loss in order."""
+    x = torch.tensor(2.0, requires_grad=True)
+
+    def never() -> torch.Tensor:
+        raise AssertionError("a weight-0 term computed on a step that logs nothing")
+
+    terms, loss = weighted(x * 3, {"eikonal": (0.5, lambda: x * x), "tv_time": (0.0, never)}, logged=False)
+    assert set(terms) == {"sinogram", "eikonal"} and float(loss) == 6.0 + 0.5 * 4.0
+    terms, _ = weighted(x * 3, {"tv_space": (0.0, lambda: x * x)}, logged=True)
+    assert float(terms["tv_space"]) == 4.0 and terms["tv_space"].grad_fn is None
