@@ -84,8 +84,8 @@ def weighted(sinogram: Tensor, regularisers: dict[str, tuple[float, Callable[[],
              ) -> tuple[dict[str, Tensor], Tensor]:
     """The terms and the loss of a step: the ``sinogram`` term plus each regulariser's weight times its term, in
     order. A term of weight 0 adds nothing, its gradient included, so it stays out of the graph and is computed,
-    without gradient, only on a step whose values are ``logged`` (the defaults' tv_space and tv_time: dg/dt alone
-    was a tenth of a step)."""
+    without gradient, only on a step whose values are ``logged`` (the defaults' tv_space and tv_time: a seventh of
+    the default run's tournament, benchmarks/results/speed)."""
     terms, loss = {"sinogram": sinogram}, sinogram
     for name, (weight, term) in regularisers.items():
         if weight:
