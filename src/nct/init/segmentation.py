@@ -156,7 +156,7 @@ def nest(masks: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 def fill_holes(masks: np.ndarray) -> np.ndarray:
     """scipy's ``binary_fill_holes`` of each image of ``masks`` [..., H, W] bool on its own (what lies outside is
     the complement's 4-connected parts that touch the image's edge), for all images in one labelling: the same
-    masks, a third of the time of an image at a time (one run's 20 segmentations: 2.3 s of its start)."""
+    masks, without a call per image."""
     flat = masks.reshape(-1, *masks.shape[-2:])
     within = np.zeros((3, 3, 3), bool)
     within[1] = ndimage.generate_binary_structure(2, 1)  # 4-connected within an image, never across images
