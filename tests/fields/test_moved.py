@@ -155,14 +155,29 @@ def test_a_held_siren_template_is_rendered_over_its_reach_only():
     masks = np.zeros((6, 1, 32, 32), dtype=bool)
     masks[:, :, 10:20, 12:16] = True
     field = moved(family="siren", n_objects=1)
-    assert field.side == 16 and field.on_lattice(8).template.shape == (1, 1, 16, 16)
+    assert field.side == 16
     field.start_motion(replace(mask_sightings(masks, times), held=True))
     assert field.side == math.ceil(16 * float(field.extent[0])) and 2 <= field.side < 16
-    assert field.on_lattice(8).template.shape == (1, 1, field.side, field.side)
     reloaded = moved(family="siren", n_objects=1)
     reloaded.load_state_dict(field.state_dict())
     assert reloaded.side == field.side
     torch.testing.assert_close(reloaded.sdf(reloaded.on_lattice(8), times), field.sdf(field.on_lattice(8), times))
+
+
+def test_an_affine_field_relaxed_from_a_rigid_one_draws_the_same_g():
+    """``relax``: the rigid field's template, poses, reach, intensities and background, the affine channels at zero."""
+    rigid, affine = moved("rigid", family="siren"), moved("affine", family="siren")
+    set_poses(rigid, {0: torch.tensor([[0.1, 0.05, 0.0, 0.0], [-0.2, 0.0, 0.02, 0.0]]), 2: torch.full((2, 4), 0.3)})
+    rigid.extent.copy_(torch.tensor([0.6, 2.0]))
+    rigid.held[:2] = True
+    rigid.set_intensities(torch.tensor([0.5, -2.0]))
+    rigid.set_background(torch.rand(8, 8))
+    affine.relax(rigid.state_dict())
+    times = torch.linspace(0, 1, 5)
+    torch.testing.assert_close(affine.sdf(affine.on_lattice(12), times), rigid.sdf(rigid.on_lattice(12), times))
+    assert affine.side == rigid.side and affine.held.tolist() == [True, True, False, False, False, False]
+    assert torch.equal(affine.intensities, rigid.intensities) and torch.equal(affine.background, rigid.background)
+    assert not affine.pose[3:].any()
 
 
 @pytest.mark.parametrize("family", ["grid", "siren"])
@@ -185,3 +200,42 @@ def test_tiny_rigid_reconstruction_runs_and_moves_the_disc(family):
     ty = (truth * -u[None, :, None]).sum(axis=(1, 2)) / truth.sum(axis=(1, 2))
     assert np.hypot(cx - tx, cy - ty).max() < 2 / 32
     assert np.hypot(cx[-1] - cx[0], cy[-1] - cy[0]) > 1.5 / 32  # it moves: the truth's ends are 4.1 px apart
+
+
+def test_an_affine_candidate_starts_from_its_rigid_ones_initfit():
+    """Rigid and affine from one start: one InitFit, the affine fit starting where the rigid one did."""
+    grid = ImageGrid(32)
+    sino, times = moving_disc(grid)
+    model = ModelConf(family="siren", width=16, depth=2, resolution=32)
+    result = reconstruct(sino, grid, times, model, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+                         motion=SelectionConf(rungs=["rigid", "affine"]), optim=OPTIM, init=INIT,
+                         background=NO_BACKGROUND)
+    stages = result.stages
+    assert stages["rigid_init"]["steps"] == OPTIM.init_steps
+    assert stages["affine_init"] == {"steps": 0, "wall_time_s": 0.0, "misfit": stages["rigid_init"]["misfit"],
+                                     "from": "rigid_init"}
+    assert stages["affine_fit"]["misfit_start"] == pytest.approx(stages["rigid_fit"]["misfit_start"], rel=1e-5)
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_a_siren_template_rendered_where_the_points_reach_is_the_whole_lattices(held):
+    """The SIREN rendered on the window its points reach gives the values and gradients of the whole lattice's,
+    points beyond the lattice (held at its border) included."""
+    field = moved(family="siren", n_objects=2)
+    if held:
+        field.extent.copy_(torch.tensor([0.6, 0.9]))
+        field.read_buffers()
+    q = (torch.rand(2, 300, 2, generator=torch.Generator().manual_seed(1)) * 0.8 + 0.1).requires_grad_()
+    q2 = q.detach().clone().requires_grad_()
+    side = field.side
+    image = field.template(lattice_points(side) * SPAN).T.reshape(2, 1, side, side)
+    where = q2 * q2.new_tensor([1.0, -1.0]) / field.extent[:, None, None]
+    whole = torch.nn.functional.grid_sample(image, where[:, None], mode="bilinear", padding_mode="border",
+                                            align_corners=False)[:, 0, 0]
+    window = field.lookup(field.on_lattice(8), q)
+    assert torch.allclose(window, whole, atol=1e-6)
+    weights = torch.randn_like(whole)
+    grads = [torch.autograd.grad((out * weights).sum(), [x, *field.template.parameters()])
+             for out, x in ((window, q), (whole, q2))]
+    for a, b in zip(*grads):
+        assert torch.allclose(a, b, atol=1e-5, rtol=1e-4)

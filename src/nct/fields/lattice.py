@@ -81,3 +81,20 @@ def lattice_interpolation(size: int, cells: int, device: torch.device | None = N
     matrices for image rows (y runs down) and columns: two [size, cells]. Cached per device: do not modify."""
     u = pixel_centres(size)
     return interpolation_matrix(-u, cells).to(device), interpolation_matrix(u, cells).to(device)
+
+
+def reached_window(where: Tensor, side: int) -> tuple[slice, slice]:
+    """The rows and columns of a ``side`` x ``side`` image that ``grid_sample`` (bilinear, border padding,
+    align_corners=False) touches at ``where`` [..., 2] (x along the columns, y down the rows, [-1, 1]): a lookup
+    in that window alone (`window_grid`) gives the same values and gradients. Reads ``where`` back (a GPU waits)."""
+    index = (((where.detach().reshape(-1, 2) + 1) * side - 1) / 2).nan_to_num(0.0).clamp(0, side - 1)
+    (c0, r0), (c1, r1) = index.amin(0).floor().long().tolist(), index.amax(0).floor().long().tolist()
+    return slice(r0, min(r1 + 2, side)), slice(c0, min(c1 + 2, side))
+
+
+def window_grid(where: Tensor, side: int, rows: slice, cols: slice) -> Tensor:
+    """``where`` [..., 2] on the whole ``side`` x ``side`` image as coordinates on its window ``rows`` x ``cols``
+    (grid_sample's, align_corners=False): [..., 2]."""
+    low = where.new_tensor([cols.start, rows.start])
+    n = where.new_tensor([cols.stop - cols.start, rows.stop - rows.start])
+    return ((where + 1) * side - 2 * low) / n - 1

@@ -23,7 +23,7 @@ from torch import Tensor, nn
 
 from nct.fields.base import MultiGrid, Siren, SpaceTimeField
 from nct.fields.conf import ModelConf
-from nct.fields.lattice import lattice_points, reach_side
+from nct.fields.lattice import lattice_points, reach_side, reached_window, window_grid
 from nct.fields.series import legendre, legendre_fit, on_scan, series_terms
 from nct.fields.sightings import Sightings
 
@@ -34,11 +34,9 @@ POSE_SCALE = 10.0  # the poses' series are stored over this: Adam steps them 10x
 
 @dataclass(frozen=True)
 class Lattice:
-    """What ``MovedTemplate.sdf`` needs of a step: the P points [P, 2] and the template rendered on
-    its own lattice [K, 1, S, S] (None: looked up directly)."""
+    """What ``MovedTemplate.sdf`` needs of a step: the P points [P, 2] it draws g at."""
 
     points: Tensor
-    template: Tensor | None
 
 
 class MovedTemplate(SpaceTimeField):
@@ -88,15 +86,19 @@ class MovedTemplate(SpaceTimeField):
         return Siren(2, conf.width, conf.depth, n_objects, conf.omega0)
 
     def on_lattice(self, size: int) -> Lattice:
-        """The pixel centres of a size x size image and the templates rendered."""
-        image = self.template(lattice_points(self.side, self.span.device) * SPAN).T
-        return Lattice(lattice_points(size, self.span.device), image.reshape(self.n_objects, 1, self.side, self.side))
+        """The pixel centres of a size x size image."""
+        return Lattice(lattice_points(size, self.span.device))
 
     def lookup(self, c: Lattice, q: Tensor) -> Tensor:
-        """Template k at its own points q[k] [K, Q, 2] (template frame): [K, Q]."""
+        """Template k at its own points q[k] [K, Q, 2] (template frame): [K, Q]. The SIREN is rendered on the window
+        of its lattice that the points reach (the bilinear lookup reads no other point, so g is the same): a free
+        centre's lattice covers twice the image a side, of which a step's views reach about a third."""
         where = q * q.new_tensor([1.0, -1.0]) / self.extent[:, None, None]  # the rendered rows run down, y up
-        return F.grid_sample(c.template, where[:, None], mode="bilinear", padding_mode="border",
-                             align_corners=False)[:, 0, 0]
+        rows, cols = reached_window(where, self.side)
+        points = lattice_points(self.side, self.span.device).reshape(self.side, self.side, 2)[rows, cols]
+        image = self.template(points.reshape(-1, 2) * SPAN).T.reshape(self.n_objects, 1, *points.shape[:2])
+        return F.grid_sample(image, window_grid(where, self.side, rows, cols)[:, None], mode="bilinear",
+                             padding_mode="border", align_corners=False)[:, 0, 0]
 
     def basis(self, t: Tensor) -> Tensor:
         """The Legendre basis over the scan at times t [T] (rotations): [T, n_basis]."""
@@ -146,6 +148,17 @@ class MovedTemplate(SpaceTimeField):
             self.extent.copy_(seen.cover().clamp(max=SPAN))
         self.read_buffers()
 
+    @torch.no_grad()
+    def relax(self, rigid: dict) -> None:
+        """Become, as an affine field, the rigid one whose state is ``rigid``: its template, reach, intensities and
+        background, its pose series in the rotation's channels and the scalings' and shear's at zero."""
+        state = dict(rigid)
+        pose, held = torch.zeros_like(self.pose), torch.zeros_like(self.held)
+        pose[:3], held[:3] = state.pop("pose"), state.pop("held")
+        if "background" in state:
+            self.set_background(state["background"])
+        self.load_state_dict(state | {"pose": pose, "held": held})
+
     def describe(self) -> dict:
         """Capacity summary: the rung, parameter count, pose terms."""
         return {
@@ -164,9 +177,6 @@ class GridMovedTemplate(MovedTemplate):
     @staticmethod
     def make_template(conf: ModelConf, n_objects: int) -> nn.Module:
         return MultiGrid(n_objects, round(conf.resolution * SPAN), conf.levels)
-
-    def on_lattice(self, size: int) -> Lattice:
-        return Lattice(lattice_points(size, self.span.device), None)
 
     def lookup(self, c: Lattice, q: Tensor) -> Tensor:
         return self.template.each(q / self.extent[:, None, None])

@@ -46,18 +46,27 @@ class Race:
                                      motion)
 
     def start(self, cand: Candidate) -> None:
-        """Build ``cand``'s field and InitFit it to its start, from the candidate's own streams."""
+        """Build ``cand``'s field and InitFit it to its start, from the candidate's own streams. An affine field
+        whose rigid one was started takes that one's InitFit: InitFit fits a moved template's template alone and
+        the affine poses start as the rigid's, so it would fit the same template to the same start."""
         setup, optim = self.by_model[cand.scene], self.optim
         rng, torch_seed = (setup.rng, self.seed) if cand.continues_run else streams(self.seed, cand.key)
+        rigid = relaxed(cand)
         with torch.random.fork_rng():  # the field's weights and its InitFit from the candidate's own streams
             torch.manual_seed(torch_seed)
             conf = self.model if cand.f_max is None else replace(self.model, f_max=cand.f_max)
             self.nets[cand] = net = build_field(conf, cand.scene.n_objects, torch.Generator().manual_seed(torch_seed),
                                                 cand.rung, setup.prob.span)
-            begin = setup.start(cand.start)
-            begin = begin if cand.turning is None else turned_start(setup.prob, begin, cand.turning)
-            misfit = init_fit(setup.prob, self.session, net, cand.name, begin, optim.init_steps, optim, self.render,
-                              rng, optim.coarse_size)
+            if cand.rung == "affine" and rigid in self.started:
+                misfit, state, _ = self.started[rigid]
+                net.relax(state)
+                self.session.stages[f"{cand.name}_init"] = {"steps": 0, "wall_time_s": 0.0, "misfit": misfit,
+                                                            "from": f"{rigid.name}_init"}
+            else:
+                begin = setup.start(cand.start)
+                begin = begin if cand.turning is None else turned_start(setup.prob, begin, cand.turning)
+                misfit = init_fit(setup.prob, self.session, net, cand.name, begin, optim.init_steps, optim,
+                                  self.render, rng, optim.coarse_size)
         self.started[cand] = misfit, copy.deepcopy(net.state_dict()), rng
 
     def run(self, pool: list[Candidate]) -> None:
@@ -121,8 +130,8 @@ def fit_order(pool: list[Candidate], started: dict[Candidate, float]) -> list[Ca
     those of earlier rounds too), a relaxation right after the model it relaxes (`relaxed`), which sets the bound
     that stops it at its first milestone unless it heads for parsimony's. A wider band fits InitFit's FBP frames
     better whatever the motion (a still scene: 0.069 against 0.174, both fits ending at 0.019), so it ran first and
-    to its end where it loses (benchmarks/results/generalisation/band_order); rigid and affine InitFits fit the same
-    template to the same start, so which of them went first was their SIREN's draw (benchmarks/results/rungs)."""
+    to its end where it loses (benchmarks/results/generalisation/band_order); an affine fit starts from its rigid one's
+    InitFit (`Race.start`), so the two start level and the simpler goes first."""
     def base(cand: Candidate) -> Candidate:
         relaxes = relaxed(cand)
         return relaxes if relaxes in started else cand
