@@ -1,7 +1,8 @@
 """A candidate's two stages: InitFit of a fresh field to a start's SDF frames, then SinogramFit to the views.
 
 Each candidate draws its field's weights and its minibatches from its own random streams, seeded by
-(seed, candidate name), so adding or removing a candidate changes no other candidate's fit; the paper's
+(seed, candidate name), so adding or removing a candidate changes no other candidate's fit (but an affine one's,
+which starts from its rigid one's InitFit where there is one: select/race.py); the paper's
 field from the best judged start (candidate ``free``) continues the run's own streams, so that
 ``motion=free`` with one start fits exactly as the method did before the ladder.
 """
