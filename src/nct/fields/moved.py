@@ -92,7 +92,7 @@ class MovedTemplate(SpaceTimeField):
     def lookup(self, c: Lattice, q: Tensor) -> Tensor:
         """Template k at its own points q[k] [K, Q, 2] (template frame): [K, Q]. The SIREN is rendered on the window
         of its lattice that the points reach (the bilinear lookup reads no other point, so g is the same): a free
-        centre's lattice covers twice the image a side, of which a step reaches 28-60 % (benchmarks/results/rungs)."""
+        centre's lattice covers twice the image a side, of which a step reaches 26-62 % (benchmarks/results/rungs)."""
         where = q * q.new_tensor([1.0, -1.0]) / self.extent[:, None, None]  # the rendered rows run down, y up
         rows, cols = reached_window(where, self.side)
         points = lattice_points(self.side, self.span.device).reshape(self.side, self.side, 2)[rows, cols]
