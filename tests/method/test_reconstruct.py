@@ -297,8 +297,10 @@ def test_rendered_disc_matches_closed_form_chords(geometry, k_samp):
                          ids=["curved", "flat-offset"])  # a flat detector centred: the offset one with u shifted
 def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_margin(shape, offset):
     """Issue 11's bar at a small size: the circle experiment (100 deg/rotation) in fan beam, NCT
-    Dice >= 0.93 and >= fan-beam FBP + 0.08. Measured (64^2, 180 views, 300 steps): NCT
-    0.946-0.948, FBP 0.831-0.835; at full size (benchmarks/results/fan) 0.964-0.966 vs 0.823-0.826."""
+    Dice >= 0.93 and >= fan-beam FBP + 0.08, its one object given (the geometry is tested here, not the
+    choice of K: 8 s a geometry instead of 22). Measured (64^2, 180 views, 300 steps, session 59): NCT
+    0.938 curved, 0.946 flat-offset (K chosen: 0.941, 0.946), FBP 0.831, 0.834; at full size
+    (benchmarks/results/fan) 0.964-0.966 vs 0.823-0.826."""
     scanner = Scanner(180, 1.0, 0.25, n_bins=64, bin_spacing=2.2 / 64, source_distance=2.0, detector_distance=2.0,
                       detector_shape=shape, detector_offset=offset)
     phantom = build_phantom(CircleConf(radius=0.15, orbit_radius=0.2, displacement_deg=100.0), scanner.rotation_time)
@@ -306,8 +308,8 @@ def test_small_fan_beam_fit_of_the_circle_experiment_beats_fbp_by_the_issue_marg
     sino = simulate(phantom, scanner, grid, times, None, np.random.default_rng(0))
     model = ModelConf(width=32, depth=2, temporal_width=32, temporal_depth=2, n_terms=16)
     optim = OptimConf(init_steps=100, fit_steps=300, refine=False, batch_views=10, warmup_steps=10, lr_decay_every=30)
-    result = reconstruct(sino, grid, times, model, LossConf(), TRAINER, 0,
-                         log_dir=None, logger="none", optim=optim, init=InitConf(frames_per_rotation=24), background=NO_BACKGROUND)
+    result = reconstruct(sino, grid, times, model, LossConf(), TRAINER, 0, log_dir=None, logger="none", optim=optim,
+                         init=InitConf(frames_per_rotation=24), background=NO_BACKGROUND, n_objects=1)
     level = sino.truth.level
     nct = float(np.median(frame_metrics(result.frames, sino.truth.frames, level).dice))
     fbp = float(np.median(frame_metrics(fbp_frames(sino, grid, times), sino.truth.frames, level).dice))
