@@ -4,6 +4,7 @@ it), a refused job removes only a folder it made, and the .hydra/ record is writ
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import pytest
@@ -63,6 +64,23 @@ def test_a_refused_job_removes_only_a_folder_it_found_empty(tmp_path, monkeypatc
     (tmp_path / "here" / "main.log").write_text("reading ...")
     here.clear()
     assert here.fresh and (tmp_path / "here").is_dir() and not any((tmp_path / "here").iterdir())
+
+
+def test_a_refused_job_leaves_no_log_handler_writing_into_its_folder(tmp_path):
+    """Hydra's job log (a FileHandler opened at its first line) goes with the folder: a later run in the same
+    process logging to it would fail on the missing folder (a test run after a refused one did)."""
+    fresh, elsewhere = folder_with(tmp_path, None), logging.FileHandler(tmp_path / "other.log", delay=True)
+    ours = logging.FileHandler(fresh.path / "main.log", delay=True)
+    root = logging.getLogger()
+    for handler in (ours, elsewhere):
+        root.addHandler(handler)
+    try:
+        fresh.clear()
+        assert not fresh.path.exists() and ours not in root.handlers and elsewhere in root.handlers
+    finally:
+        for handler in (ours, elsewhere):
+            root.removeHandler(handler)
+            handler.close()
 
 
 def test_the_record_is_written_once(tmp_path):

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
+from nct.records import write_json
 from nct.run.outcome import FINISHED, UNFINISHED, read_outcome
 
 BENCH_FILE = "bench.json"
@@ -161,7 +162,7 @@ def run_one(job: Job, threads: int = 1, timeout_s: float | None = None) -> Recor
 def save_record(record: Record) -> None:
     """Write the record's measurements to ``<run_dir>/bench.json`` (for ``resume``)."""
     payload = {k: v for k, v in asdict(record).items() if k != "job"}
-    (record.job.run_dir / BENCH_FILE).write_text(json.dumps(payload, indent=1))
+    write_json(record.job.run_dir / BENCH_FILE, payload, indent=1)
 
 
 def load_record(job: Job) -> Record | None:

@@ -28,6 +28,7 @@ from nct.fit.callbacks import DivergenceCheck, ImageLog
 from nct.fit.conf import LOGGERS, TrainerConf
 from nct.fit.progress import StageBar, StageLog, log_stage, show_bar
 from nct.fit.stages import FieldStage
+from nct.records import write_json
 
 log = logging.getLogger(__name__)
 RECORD = "stage.json"  # beside a stage's checkpoint: its steps, losses and wall time, written when it finished
@@ -183,7 +184,7 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
             trainer.save_checkpoint(folder / "last.ckpt")
     result = stage_record(trainer, module, steps, start)
     if folder is not None:
-        (folder / RECORD).write_text(json.dumps(result))  # written last: the stage counts as finished
+        write_json(folder / RECORD, result)  # written last (and whole): the stage counts as finished
     if not bar:
         log_stage(name, result)
     return result

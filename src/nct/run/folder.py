@@ -11,6 +11,7 @@ continue the run that is there. Hydra writes nothing into the folder before the 
 from __future__ import annotations
 
 import json
+import logging
 import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -77,8 +78,12 @@ class Folder:
 
     def clear(self) -> None:
         """Remove what a refused job wrote into a folder it found empty (the folder too, unless it is
-        the working directory): a refused run leaves no folder behind."""
-        if not self.fresh or not self.path.is_dir():
+        the working directory), and the log handlers writing there: a refused run leaves no folder behind,
+        and no handler that a later run in the same process (a notebook's, a test's) would write to."""
+        if not self.fresh:
+            return
+        _drop_log_files(self.path)
+        if not self.path.is_dir():
             return
         for child in self.path.iterdir():
             if child.is_dir() and not child.is_symlink():
@@ -99,3 +104,13 @@ def write_record(folder: Path, cfg: DictConfig, overrides: Sequence[str] | None,
     files = {"config.yaml": cfg, "overrides.yaml": OmegaConf.create(list(overrides or []))}
     for name, node in (files | ({"hydra.yaml": hydra} if hydra is not None else {})).items():
         (record / name).write_text(OmegaConf.to_yaml(node))
+
+
+def _drop_log_files(folder: Path) -> None:
+    """Close and detach the root logger's file handlers whose file lies in ``folder`` (Hydra's job log)."""
+    root, inside = logging.getLogger(), folder.resolve()
+    for handler in list(root.handlers):
+        name = getattr(handler, "baseFilename", None)
+        if isinstance(handler, logging.FileHandler) and name and Path(name).resolve().is_relative_to(inside):
+            root.removeHandler(handler)
+            handler.close()

@@ -25,17 +25,12 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 
 from nct.errors import DivergenceError, InputError, MethodError
+from nct.records import write_json
 from nct.run.config import validate
 from nct.run.folder import Folder, settings, write_record
 from nct.run.phases import Instant
 
 log = logging.getLogger(__name__)
-
-
-def _write_json(path: Path, payload: dict) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(payload, indent=2))
-    tmp.replace(path)
 
 
 PACKAGES = ("nct", "torch", "numpy", "scipy", "scikit-image", "scikit-learn", "lightning", "hydra-core")
@@ -58,10 +53,10 @@ def environment() -> dict[str, str]:
 def _record(out_dir: Path, job_settings: list[str], started: Instant, status: str, error: str | None = None,
             wall: float | None = None, warnings: Sequence[str] = (), **extra) -> None:
     """Write the job's status.json (``wall`` None: the wall time so far)."""
-    _write_json(out_dir / "status.json", {
+    write_json(out_dir / "status.json", {
         "status": status, "error": error, "overrides": job_settings,
         "wall_time_s": time.perf_counter() - started.wall if wall is None else wall,
-        "warnings": list(warnings), "environment": environment(), **extra})
+        "warnings": list(warnings), "environment": environment(), **extra}, indent=2)
 
 
 def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
@@ -115,7 +110,7 @@ def run_job(cfg: DictConfig, out_dir: Path, overrides: list[str] | None = None,
     except BaseException as err:
         record("failed", f"{type(err).__name__}: {err}", traceback=traceback.format_exc())
         raise
-    _write_json(out_dir / "metrics.json", result)
+    write_json(out_dir / "metrics.json", result, indent=2)
     record("ok", wall=result["wall_time_s"], warnings=warnings, **_model(result))
     _log_summary(result, warnings, out_dir)
     return result.get("heldout_loss")

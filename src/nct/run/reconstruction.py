@@ -21,6 +21,7 @@ from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Truth
 from nct.errors import InputError
 from nct.method.fitted import FIELD_FILE, FittedField, load_field, save_field
+from nct.records import write_json
 from nct.run.metrics import FrameMetrics, frame_metrics
 from nct.run.tables import write_csv
 from nct.select.tournament import Row
@@ -134,7 +135,7 @@ class Reconstruction:
         if self.fitted is not None:
             save_field(folder / FIELD_FILE, self.fitted)
         scan = {"times_unit": self.scan.times_unit, "simulated": self.scan.simulated}
-        (folder / RECORD).write_text(json.dumps({"scan": scan, "warnings": self.warnings, "record": self.record}))
+        write_json(folder / RECORD, {"scan": scan, "warnings": self.warnings, "record": self.record})
 
 
 def load_reconstruction(folder: str | Path) -> Reconstruction:
