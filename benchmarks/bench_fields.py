@@ -17,7 +17,8 @@ from nct.acquisition.scanner import ImageGrid
 from nct.fields.build import build_field
 from nct.fields.conf import ModelConf
 from nct.fit.conf import LossConf, OptimConf, RenderConf
-from nct.fit.stages import SinogramFit, Views
+from nct.fit.problem import Views
+from nct.fit.stages import SinogramFit
 
 CASES = (("siren", {}), ("siren", {"n_terms": 0}), ("grid", {}), ("grid", {"n_terms": 0}), ("siren", {
     "width": 256, "temporal_width": 128, "n_terms": 128, "f_max": 3.0}))

@@ -12,7 +12,8 @@ from nct.acquisition.geometry import ParallelGeometry
 from nct.acquisition.scanner import ImageGrid
 from nct.fields.build import build_field
 from nct.fit.conf import LossConf, RenderConf
-from nct.fit.stages import SinogramFit, Views, balanced_l1, weighted
+from nct.fit.problem import Views
+from nct.fit.stages import SinogramFit, balanced_l1, weighted
 from tests.conftest import MODEL, OPTIM
 
 

@@ -13,8 +13,9 @@ from lightning.pytorch.callbacks import Callback
 from torch import Tensor
 
 from nct.errors import DivergenceError
+from nct.fit.problem import HeldoutHistory
 from nct.fit.render import intensity
-from nct.fit.stages import FieldStage, HeldoutHistory, InitFit, SinogramFit, logging_step
+from nct.fit.stages import FieldStage, InitFit, SinogramFit, logging_step
 
 
 class MinLossStop(Callback):

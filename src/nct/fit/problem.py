@@ -12,11 +12,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
+from torch import Tensor
 
+from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.sinogram import Sinogram
 from nct.fit.conf import HeldoutConf, LossConf
-from nct.fit.stages import Views
 from nct.fit.units import Units, field_of_view
 from nct.init.conf import InitConf
 from nct.moments.compensation import compensated_frames
@@ -74,6 +75,26 @@ def heldout_standard_error(losses: np.ndarray, blocks: int = 10) -> float:
         return float("nan")
     means = [part.mean() for part in np.array_split(losses, min(blocks, len(losses)))]
     return float(np.std(means, ddof=1) / math.sqrt(len(means)))
+
+
+HeldoutHistory = list[tuple[int, float]]  # (step, held-out misfit) at each held-out check of a fit
+
+
+@dataclass(frozen=True)
+class Views:
+    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry;
+    sigma [V, n_bins]: each value's noise std for the data term (None: the L1 term)."""
+
+    values: Tensor
+    angles: Tensor
+    times: Tensor
+    geometry: Geometry
+    sigma: Tensor | None = None
+
+    @property
+    def scale(self) -> float:
+        """Mean |value|: the sinogram loss is relative to it."""
+        return float(self.values.abs().mean().clamp_min(1e-12))
 
 
 @dataclass

@@ -23,8 +23,8 @@ from nct.fields.base import SpaceTimeField
 from nct.fields.sightings import Sightings
 from nct.fit.callbacks import HeldoutStop, MinLossStop
 from nct.fit.conf import OptimConf, RenderConf, TrainerConf
-from nct.fit.problem import Problem
-from nct.fit.stages import HeldoutHistory, InitFit, SinogramFit
+from nct.fit.problem import HeldoutHistory, Problem
+from nct.fit.stages import InitFit, SinogramFit
 from nct.fit.trainer import IndexDataModule, RunClock, Snapshot, SnapshotLog, run_stage
 
 if TYPE_CHECKING:

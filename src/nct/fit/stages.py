@@ -9,39 +9,19 @@ data, export and metrics live elsewhere.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import lightning as L
 import numpy as np
 import torch
 from torch import Tensor
 
-from nct.acquisition.geometry import Geometry
 from nct.acquisition.scanner import ImageGrid
 from nct.fields.base import Coefficients, SpaceTimeField
 from nct.fields.lattice import upsample
 from nct.fit.conf import LossConf, OptimConf, RenderConf
+from nct.fit.problem import HeldoutHistory, Views
 from nct.fit.render import project_frames
 from nct.physics.data_term import misfit
-
-HeldoutHistory = list[tuple[int, float]]  # (step, held-out misfit) at each held-out check of a fit
-
-
-@dataclass(frozen=True)
-class Views:
-    """Measured views as tensors: values [V, n_bins], angles [V] rad, times [V] in rotations; the rays' geometry;
-    sigma [V, n_bins]: each value's noise std for the data term (None: the L1 term)."""
-
-    values: Tensor
-    angles: Tensor
-    times: Tensor
-    geometry: Geometry
-    sigma: Tensor | None = None
-
-    @property
-    def scale(self) -> float:
-        """Mean |value|: the sinogram loss is relative to it."""
-        return float(self.values.abs().mean().clamp_min(1e-12))
 
 
 def spatial_gradient(sdf: Tensor, pixel_size: float) -> tuple[Tensor, Tensor]:

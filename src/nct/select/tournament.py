@@ -19,7 +19,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from nct.fit.stages import HeldoutHistory
+from nct.fit.problem import HeldoutHistory
 from nct.select.candidates import Candidate, SceneModel
 from nct.select.conf import SelectionConf
 
