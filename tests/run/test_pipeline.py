@@ -273,9 +273,11 @@ def test_method_failure_is_one_line_exit_1_and_recorded(nct, tmp_path):
     assert "traceback" not in status
 
 
-def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tmp_path):
+@pytest.mark.parametrize("cut", ["files removed", "records empty"])
+def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tmp_path, cut):
     """A run killed after its first passes resumes from their checkpoints and ends exactly where
-    an uninterrupted run ends; the finished stages are loaded, not run again."""
+    an uninterrupted run ends; the finished stages are loaded, not run again. A stage whose record a kill
+    cut short (nct before records were written whole) runs again."""
     steps = ("optim.refine=true", "optim.refine_init_steps=5", "optim.refine_fit_steps=5", *QUIET)
     whole, killed = tmp_path / "whole", tmp_path / "killed"
     run_job(tiny_cfg(*steps), whole, list(steps))
@@ -283,7 +285,10 @@ def test_resume_continues_a_killed_run_from_its_last_finished_stage(tiny_cfg, tm
     # As if killed during the refinement: its stages unfinished, no metrics, status still running.
     for stage in ("refine_init", "refine_fit"):
         for path in (killed / "checkpoints" / stage).iterdir():
-            path.unlink()
+            if cut == "records empty" and path.name == "stage.json":
+                path.write_text("")  # created, killed before its write
+            else:
+                path.unlink()
     (killed / "metrics.json").unlink()
     status = read(killed / "status.json")
     (killed / "status.json").write_text(json.dumps(status | {"status": "running"}))

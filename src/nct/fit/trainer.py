@@ -165,8 +165,9 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     if steps == 0:
         return {"steps": 0, "losses": {}, "wall_time_s": 0.0}
     folder = Path(log_dir) / "checkpoints" / name if log_dir is not None else None
-    if resume and folder is not None and (folder / RECORD).is_file():
-        return load_stage(module, folder, name)
+    record = finished_record(folder) if resume and folder is not None else None
+    if record is not None:
+        return load_stage(module, folder, name, record)
     every = check_every if data.held else 0
     bar = show_bar(conf.callbacks.progress_bar)
     stage_logger, callbacks = stage_logging(module, name, conf, log_dir, logger, extra_callbacks, bar)
@@ -190,9 +191,18 @@ def run_stage(module: FieldStage, data: IndexDataModule, steps: int, name: str, 
     return result
 
 
-def load_stage(module: FieldStage, folder: Path, name: str) -> dict:
+def finished_record(folder: Path) -> dict | None:
+    """The record of the stage that finished in ``folder``; None where none did, or where a kill cut the record
+    short (nct before records were written whole): the stage then runs again."""
+    try:
+        return json.loads((folder / RECORD).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def load_stage(module: FieldStage, folder: Path, name: str, record: dict) -> dict:
     """A finished stage ``name`` resumed: ``module`` loaded from its checkpoint in ``folder`` (`InputError`
-    where it does not fit this version's model), its held-out history and record as it ran."""
+    where it does not fit this version's model), its held-out history and ``record`` as it ran."""
     weights = torch.load(folder / "last.ckpt", map_location=module.device, weights_only=True)["state_dict"]
     try:
         module.load_state_dict(weights)
@@ -201,7 +211,6 @@ def load_stage(module: FieldStage, folder: Path, name: str) -> dict:
         raise InputError(f"resume: the checkpoint of stage {name} in {folder} does not fit this version's model "
                          f"({detail}); rerun it in a new folder") from None
     log.info("resume: stage %s loaded from %s", name, folder)
-    record = json.loads((folder / RECORD).read_text())
     module.heldout_history = [(int(step), float(loss)) for step, loss in record.get("heldout_history", [])]
     return record | {"resumed": True}
 
