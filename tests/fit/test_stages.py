@@ -53,3 +53,34 @@ def test_a_term_of_weight_zero_stays_out_of_the_graph():
     assert set(terms) == {"sinogram", "eikonal"} and float(loss) == 6.0 + 0.5 * 4.0
     terms, _ = weighted(x * 3, {"tv_space": (0.0, lambda: x * x)}, logged=True)
     assert float(terms["tv_space"]) == 4.0 and terms["tv_space"].grad_fn is None
+
+
+def test_adam_over_each_group_at_once_steps_as_the_loop_over_its_tensors():
+    """The stages' Adam steps every tensor of a group at once (foreach) and takes the steps of CPU's default loop
+    over each tensor, to the bit, over the warmup and a decay of the schedule: the fits are the loop's, cheaper."""
+    torch.manual_seed(0)
+    field = build_field(MODEL, 2, torch.Generator().manual_seed(0), "free")
+    views = Views(torch.rand(6, 24), torch.linspace(0, 6, 6), torch.linspace(0, 1, 6), ParallelGeometry(24, 1 / 24))
+    stage = SinogramFit(field, ImageGrid(24), OPTIM, RenderConf(), LossConf(), views, steps=10)
+    params = [p for group in stage.param_groups() for p in group["params"]]
+    start = [p.detach().clone() for p in params]
+    grads = [[torch.randn_like(p) for p in params] for _ in range(OPTIM.lr_decay_every + 5)]
+
+    def stepped(optimizer, scheduler) -> list[torch.Tensor]:
+        with torch.no_grad():
+            for p, s in zip(params, start):
+                p.copy_(s)
+        for step in grads:
+            for p, g in zip(params, step):
+                p.grad = g.clone()
+            optimizer.step()
+            scheduler.step()
+        return [p.detach().clone() for p in params]
+
+    ours = stage.configure_optimizers()
+    optimizer, schedule = ours["optimizer"], ours["lr_scheduler"]["scheduler"].lr_lambdas[0]
+    assert optimizer.defaults["foreach"]
+    ends = stepped(optimizer, ours["lr_scheduler"]["scheduler"])
+    loop = torch.optim.Adam(stage.param_groups(), lr=OPTIM.lr, foreach=False)
+    looped = stepped(loop, torch.optim.lr_scheduler.LambdaLR(loop, schedule))
+    assert all(torch.equal(a, b) for a, b in zip(ends, looped)) and not torch.equal(ends[0], start[0])

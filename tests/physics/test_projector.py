@@ -12,7 +12,8 @@ import torch
 from skimage.transform import radon
 
 from nct.acquisition.scanner import ImageGrid
-from nct.physics.projector import forward_project
+from nct.acquisition.geometry import FanGeometry, ParallelGeometry
+from nct.physics.projector import forward_project, projector_for
 from tests.conftest import ELLIPSES, bins, ellipse_image, ellipse_projection, rel_l2
 
 ELLIPSE, SMALL_ELLIPSE = ELLIPSES
@@ -83,6 +84,28 @@ def test_batched_equals_per_view_and_broadcast():
     torch.testing.assert_close(batched, single)
     broadcast = forward_project(images[1], angles, 1.0, 12, 0.1)
     torch.testing.assert_close(broadcast, forward_project(images[1].expand(4, 16, 16), angles, 1.0, 12, 0.1))
+
+
+@pytest.mark.parametrize("geometry", [ParallelGeometry(20, 0.06), FanGeometry(20, 0.08, 3.0, 1.0, "curved")],
+                         ids=["parallel", "fan"])
+def test_sampling_grid_is_the_rays_p_plus_t_v_and_gradients_to_the_bit(geometry):
+    """The grid written a coordinate at a time holds p + t v of every ray, bit for bit, and is contiguous: the
+    image's gradient through it is that of the grid built in one broadcast (a grid of other strides rounds it
+    otherwise)."""
+    torch.manual_seed(0)
+    projector = projector_for(geometry, 16, 1.0, None, 1, torch.device("cpu"), torch.float32)
+    angles = torch.tensor([0.0, 0.7, 2.0, 5.5])
+    point, direction = projector.unit_geometry.rays(angles, projector.u_norm.to(angles))
+    down, t = projector.down.float(), projector.t_norm.float()
+    plain = torch.addcmul((point * down)[:, :, None, :], t[None, None, :, None], (direction * down)[:, :, None, :])
+    grid = projector.sampling_grid(angles)
+    assert grid.is_contiguous() and torch.equal(grid, plain)
+    images = torch.rand(4, 16, 16, requires_grad=True)
+    views = projector.along(images, grid)
+    (ours,) = torch.autograd.grad(views.square().sum(), images)
+    (theirs,) = torch.autograd.grad(projector.along(images, plain).square().sum(), images)
+    assert torch.equal(ours, theirs) and torch.equal(views, projector(images, angles))
+    assert torch.equal(projector.along(images[2], grid), projector(images[2], angles))
 
 
 @pytest.mark.parametrize(

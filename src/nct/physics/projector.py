@@ -51,6 +51,32 @@ class Projector(nn.Module):
         self.register_buffer("t_norm", t / half)
         self.register_buffer("down", torch.tensor([1.0, -1.0], dtype=torch.float64))  # y up -> rows down
 
+    def sampling_grid(self, angles: Tensor) -> Tensor:
+        """Where the rays of the views at ``angles`` [B] sample an image, in grid_sample's coordinates
+        (y down the rows), in the angles' dtype: [B, n_bins * bin_samples, n_t, 2]."""
+        point, direction = self.unit_geometry.rays(angles, self.u_norm.to(angles))
+        down = self.down.to(angles)
+        point, direction = point * down, direction * down
+        t = self.t_norm.to(angles)
+        # Each coordinate's p + t v written into its slice of one contiguous grid: half the time of one
+        # broadcast over the last axis of 2, the same values; grid_sample's backward on a grid of other
+        # strides takes another path and rounds differently.
+        grid = point.new_empty(*point.shape[:2], t.shape[0], 2)
+        for axis in (0, 1):
+            torch.addcmul(point[..., axis, None], t, direction[..., axis, None], out=grid[..., axis])
+        return grid
+
+    def along(self, images: Tensor, grid: Tensor) -> Tensor:
+        """Project image b along the rays of ``grid`` b ([B,H,W], a `sampling_grid` [B, ...]) or one image
+        along all ([H,W]): [B, n_bins]."""
+        n_views, n_rays, n_t = grid.shape[:3]
+        if images.ndim == 2:
+            samples = F.grid_sample(images[None, None], grid.reshape(1, n_views * n_rays, n_t, 2), align_corners=False)
+        else:
+            samples = F.grid_sample(images[:, None], grid, align_corners=False)
+        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_t).sum(dim=-1)
+        return sums.mean(dim=-1) * self.step
+
     def forward(self, images: Tensor, angles: Tensor) -> Tensor:
         """Project image b at angle b ([B,H,W], [B]) or one image at every angle ([H,W], [B]): [B, n_bins]."""
         if images.ndim not in (2, 3) or images.shape[-1] != images.shape[-2]:
@@ -59,19 +85,7 @@ class Projector(nn.Module):
             raise ValueError(
                 f"angles must be [B] matching images [B,H,W], got {tuple(angles.shape)} for {tuple(images.shape)}"
             )
-        point, direction = self.unit_geometry.rays(angles.to(images), self.u_norm.to(images))
-        # Sample p + t v along every ray; grid_sample's y runs down the rows. One fused addcmul:
-        # building this [B, rays, samples, 2] grid in steps costs twice as much.
-        down = self.down.to(images)
-        grid = torch.addcmul((point * down)[:, :, None, :], self.t_norm.to(images)[None, None, :, None],
-                             (direction * down)[:, :, None, :])
-        n_views, n_rays, n_t = grid.shape[:3]
-        if images.ndim == 2:
-            samples = F.grid_sample(images[None, None], grid.reshape(1, n_views * n_rays, n_t, 2), align_corners=False)
-        else:
-            samples = F.grid_sample(images[:, None], grid, align_corners=False)
-        sums = samples.reshape(n_views, self.n_bins, self.bin_samples, n_t).sum(dim=-1)
-        return sums.mean(dim=-1) * self.step
+        return self.along(images, self.sampling_grid(angles.to(images)))
 
 
 def _check_sampling(size: int, extent: float, ray_step: float | None, bin_samples: int) -> None:
@@ -90,8 +104,8 @@ def _check_sampling(size: int, extent: float, ray_step: float | None, bin_sample
 
 
 @lru_cache(maxsize=16)
-def _projector(geometry: Geometry, size: int, extent: float, ray_step: float | None, bin_samples: int,
-               device: torch.device, dtype: torch.dtype) -> Projector:
+def projector_for(geometry: Geometry, size: int, extent: float, ray_step: float | None, bin_samples: int,
+                  device: torch.device, dtype: torch.dtype) -> Projector:
     """One projector per setting, its ray buffers already on the images' device and in their
     dtype: no host-device copy in a fitting step."""
     return Projector(geometry, size, extent, ray_step, bin_samples).to(device=device, dtype=dtype)
@@ -112,7 +126,7 @@ def project(
     cover ``extent`` a side. ``ray_step`` / ``bin_samples``: see ``Projector``.
     """
     size = int(images.shape[-1])
-    return _projector(geometry, size, float(extent), ray_step, int(bin_samples), images.device,
+    return projector_for(geometry, size, float(extent), ray_step, int(bin_samples), images.device,
                       images.dtype)(images, angles)
 
 
