@@ -11,8 +11,8 @@ import pytest
 import torch
 from skimage.transform import radon
 
-from nct.acquisition.scanner import ImageGrid
 from nct.acquisition.geometry import FanGeometry, ParallelGeometry
+from nct.acquisition.scanner import ImageGrid
 from nct.physics.projector import forward_project, projector_for
 from tests.conftest import ELLIPSES, bins, ellipse_image, ellipse_projection, rel_l2
 
