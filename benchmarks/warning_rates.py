@@ -154,13 +154,17 @@ def read_folder(folder: Path) -> list[Run]:
     for row in rows:
         run_dir = folder / "runs" / layout.run(row)
         outcome = read_outcome(run_dir)
-        runs.append(Run(folder.name, row["scene"], run_dir.name, outcome.status, outcome.warnings,
-                        number(row[layout.dice[0]]), number(row[layout.dice[1]]), number(row["nct_mse"]),
-                        number(row["fbp_mse"]), tuple(row["motions"].split()),
-                        tuple(float(d) for d in row.get("deg_per_rotation", "").split()),
-                        number(row.get("rotations")), {"ccw": 1, "cw": -1}.get(row.get("direction", ""), 0),
-                        row.get("noise_i0", "")))
+        runs.append(row_run(row, layout.dice, folder.name, run_dir.name, outcome.status, outcome.warnings))
     return runs
+
+
+def row_run(row: dict, dice: tuple[str, str] = LAYOUTS[0].dice, folder: str = "", label: str = "nct",
+            status: str = FINISHED, warnings: tuple[str, ...] = ()) -> Run:
+    """A benchmark table's ``row`` (its truth and scores; ``dice``: its NCT and FBP Dice columns) as a `Run`."""
+    return Run(folder, row["scene"], label, status, warnings, number(row[dice[0]]), number(row[dice[1]]),
+               number(row["nct_mse"]), number(row["fbp_mse"]), tuple(row["motions"].split()),
+               tuple(float(d) for d in row.get("deg_per_rotation", "").split()), number(row.get("rotations")),
+               {"ccw": 1, "cw": -1}.get(row.get("direction", ""), 0), row.get("noise_i0", ""))
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ W = load_benchmark("warning_rates")
 
 TIMES = slow_rotation_warning(np.linspace(0, 2 * np.pi, 10), np.linspace(0, 100, 10), None)
 MOTION = determinacy_warnings(MotionDeterminacy(2.5, 1.0, False, 1.0, 0.1, 0.1))
-TURN = turn_warnings({"frame_coverage_deg": 120.0})
+TURN = turn_warnings(60.0)
 OFFSET, FAN = geometry_warnings(
     GeometryCheck(OffsetEstimate(3.0, (3.0,), (0.1,), 0.1), FanSwing(3.0, 2.0, 10.0, (3.0,), (10.0,))),
     SimpleNamespace(geometry=SimpleNamespace(bin_spacing=1.0, field_radius=1.0)), SuspectConf())

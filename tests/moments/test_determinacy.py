@@ -9,6 +9,7 @@ from nct.analysis.benchmarking import QUIET
 from nct.moments.determinacy import (
     determinacy_warnings,
     motion_determinacy,
+    turn_coverage,
     turn_warnings,
 )
 from nct.run.config import validate
@@ -54,14 +55,24 @@ def test_run_records_the_verdict(tiny_cfg, run_dir):
     assert any(w.startswith("motion along the rays is not determined") for w in warnings)
 
 
-@pytest.mark.parametrize("rate, coverage, warned", [(100.0, 260.0, False), (300.0, 60.0, True)])
-def test_a_bar_turning_with_the_gantry_is_warned(tiny_cfg, run_dir, rate, coverage, warned):
+@pytest.mark.parametrize("rate, coverage, model, warned", [
+    (100.0, 260.0, ("method=fbp",), False),
+    (250.0, 110.0, ("method=fbp",), False),  # under half a turn, above the limit the prior fills (TURN_WARN_DEG)
+    (300.0, 60.0, ("data.n_objects=2",), True),  # read off the data whatever the model: two objects fitted
+])
+def test_a_bar_turning_with_the_gantry_is_warned(tiny_cfg, run_dir, rate, coverage, model, warned):
     """The bar turning 300 deg/rotation over one rotation is seen in its own frame over 60 deg of view
-    angle alone (metrics.json's init; the 60 views span 59/60 of the rotation): warned; at 100
-    deg/rotation over 260 deg: not."""
-    run_job(tiny_cfg("experiment=bar", f"phantom.objects.0.angle_deg.rate={rate}", *QUIET), run_dir)
-    init = json.loads((run_dir / "metrics.json").read_text())["init"]
-    assert init["frame_coverage_deg"] == pytest.approx(coverage * 59 / 60, abs=1.0)
+    angle alone (metrics.json; the 60 views span 59/60 of the rotation): warned, also where the run fits
+    two objects; over 260 or 110 deg: not."""
+    run_job(tiny_cfg("experiment=bar", f"phantom.objects.0.angle_deg.rate={rate}", *model, *QUIET), run_dir)
+    assert json.loads((run_dir / "metrics.json").read_text())["turn_coverage_deg"] == pytest.approx(
+        coverage * 59 / 60, abs=1.0)
     warnings = json.loads((run_dir / "status.json").read_text())["warnings"]
     assert any("turns with the gantry" in w for w in warnings) is warned
-    assert turn_warnings({"frame_coverage_deg": None}) == [] == turn_warnings({})
+    assert turn_warnings(None) == []
+
+
+def test_no_turn_is_read_where_no_axis_is_held(tiny_cfg):
+    """A disc has no axis, and an orbiting one no still centre: no coverage, no warning."""
+    scan = acquire(validate(tiny_cfg()), np.random.default_rng(0))
+    assert turn_coverage(scan.sinogram) is None

@@ -21,7 +21,7 @@ from nct.fit.conf import HeldoutConf, LossConf
 from nct.fit.units import Units, field_of_view
 from nct.init.conf import InitConf
 from nct.moments.compensation import compensated_frames
-from nct.moments.orientation import frame_coverage, orientation_path, turning_part
+from nct.moments.orientation import orientation_path, turning_part
 from nct.moments.trajectory import centroid_path, steady_mass
 from nct.physics.data_term import view_noise
 from nct.physics.fbp import fbp_frames
@@ -107,8 +107,7 @@ class Problem:
     elongated and rigid, its principal axis's ``orientations`` [F] (rad, counter-clockwise; None
     otherwise: orientation.py); among several objects, the axis of one rigid part turning about a
     still centre beside still ones, ``part_orientations`` [F] (None: none held; which object it is,
-    the tournament chooses); the degrees of view angle the turning object's own frame is seen over
-    (``frame_coverage_deg``); the FBP frames' settings."""
+    the tournament chooses); the FBP frames' settings."""
 
     grid: ImageGrid
     loss: LossConf
@@ -122,7 +121,6 @@ class Problem:
     centres: np.ndarray | None = None
     orientations: np.ndarray | None = None
     part_orientations: np.ndarray | None = None
-    frame_coverage_deg: float | None = None
     fbp_window_deg: float = 180.0
     fbp_filter: str = "ramp"
 
@@ -171,7 +169,7 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
     lengths = field_of_view(grid)
     grid = lengths.grid(grid)
     fitted = subset(lengths.sinogram(sino), fit_views)
-    centres = orientations = part = coverage = None
+    centres = orientations = part = None
     path = centroid_path(fitted) if lone and steady_mass(fitted) else None
     if path is not None:
         axis = orientation_path(fitted)
@@ -179,16 +177,16 @@ def prepare(sino: Sinogram, grid: ImageGrid, loss: LossConf, init: InitConf, hel
         fbp = compensated_frames(fitted, path, grid, init_times, fbp_window_deg, fbp_filter, axis)
         centres = path.at(init_times) * 2 / grid.extent
         if axis is not None:
-            orientations, coverage = axis.at(init_times), frame_coverage(fitted, axis)
+            orientations = axis.at(init_times)
     else:
         fbp = fbp_frames(fitted, grid, init_times, fbp_window_deg, fbp_filter)
         axis = turning_part(fitted) if parts else None
         if axis is not None and axis.held:
-            part, coverage = axis.at(init_times), frame_coverage(fitted, axis)
+            part = axis.at(init_times)
     units = lengths.with_intensity_of(fbp)
     fbp, sino = fbp / units.intensity, units.sinogram(sino)  # lengths' intensity unit is 1
     views = Views(torch.from_numpy(np.asarray(sino.values, dtype=np.float32)),
                   torch.as_tensor(sino.angles, dtype=torch.float32), clock(sino.times), sino.geometry,
                   view_noise(sino, loss.data_term))
     return Problem(grid, loss, views, fbp, clock(init_times), fit_views, held_views, units, clock, centres,
-                   orientations, part, coverage, fbp_window_deg, fbp_filter)
+                   orientations, part, fbp_window_deg, fbp_filter)

@@ -204,12 +204,12 @@ def _refine(prob: Problem, session: Session, net: SpaceTimeField, fit: SinogramF
 
 
 def _init_record(chosen: SceneSetup, winner: Candidate, levels_from: str) -> dict:
-    """metrics.json's ``init``: the winner's start (init/segmentation.py's route, levels), the units, in the data's, and the
-    degrees of view angle a held axis leaves its object's own frame seen over (fit/problem.py; None: none held)."""
-    seg, prob, units = chosen.found.ranked[winner.start], chosen.prob, chosen.prob.units
+    """metrics.json's ``init``: the winner's start (init/segmentation.py's route, levels) and the units, in the
+    data's."""
+    seg, units = chosen.found.ranked[winner.start], chosen.prob.units
     return {"route": seg.route, "smoothing_px": seg.smoothing_px, "levels_from": levels_from, "start": winner.start,
             "starts_tried": chosen.n_starts, "levels_misfit": seg.misfit,
-            "frame_coverage_deg": prob.frame_coverage_deg, "background": seg.background * units.intensity,
+            "background": seg.background * units.intensity,
             "levels": [float(a) * units.intensity for a in seg.intensities], "length_unit": units.length,
             "intensity_unit": units.intensity}
 

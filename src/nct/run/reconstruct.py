@@ -20,6 +20,7 @@ from nct.fit.conf import TrainerConf
 from nct.moments.determinacy import (
     determinacy_warnings,
     motion_determinacy,
+    turn_coverage,
     turn_warnings,
 )
 from nct.physics.fbp import fbp_frames
@@ -47,7 +48,7 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
 
         lightning.seed_everything(conf.seed, workers=True, verbose=False)
     sino, grid = scan.sinogram, scan.grid
-    motion, geometry = motion_determinacy(sino, grid), check_geometry(sino)
+    motion, turn, geometry = motion_determinacy(sino, grid), turn_coverage(sino), check_geometry(sino)
     lap("checks")
     log.info("FBP: %d frames of %d x %d pixels ...", len(scan.frame_times), grid.size, grid.size)
     fbp = fbp_frames(sino, grid, scan.frame_times, conf.fbp.window_deg, conf.fbp.filter).astype(np.float32, copy=False)
@@ -56,12 +57,12 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
     measured = not scan.simulated
     extra = dict(rec.record)
     rec.warnings = ((slow_rotation_warning(sino.angles, sino.times, scan.times_unit) if measured else [])
-                    + determinacy_warnings(motion) + turn_warnings(extra.get("init", {}))
+                    + determinacy_warnings(motion) + turn_warnings(turn)
                     + (geometry_warnings(geometry, sino, conf.suspect) if measured else [])
                     + suspect_fit(conf, scan, extra))
     lap("checks")
     record = {"times": scan.frame_times.tolist(), **extra,
-              "motion_determinacy": asdict(motion) if motion is not None else None,
+              "motion_determinacy": asdict(motion) if motion is not None else None, "turn_coverage_deg": turn,
               "geometry_check": asdict(geometry) if geometry is not None else None}
     rec.record = json.loads(json.dumps(record))  # plain JSON values, as metrics.json and a saved one hold them
     return rec
