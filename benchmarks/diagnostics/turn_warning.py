@@ -115,7 +115,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--scores", type=Path, help="generalisation.py's scenes.csv for --files")
     args = parser.parse_args(argv)
     started = time.perf_counter()
-    files = args.files is not None and args.scores is not None
+    files = args.files is not None or args.scores is not None
+    if files and (args.files is None or args.scores is None):
+        parser.error("--files and --scores go together (a table's files read, no run)")
+    if files and not args.scores.is_file():
+        parser.error(f"--scores {args.scores}: no such table")
     if files:
         pairs = file_pairs(args.files, args.scores)
     else:

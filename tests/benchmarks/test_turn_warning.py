@@ -2,6 +2,8 @@
 
 import math
 
+import pytest
+
 from tests.conftest import load_benchmark
 
 TW = load_benchmark("diagnostics/turn_warning")
@@ -31,3 +33,11 @@ def test_a_sweep_plans_one_nct_and_one_fbp_run_per_shape_and_rate(tmp_path):
     assert [(j.labels["shape"], j.labels["rate"], j.method) for j in jobs[:2]] == [("bar", 200, "nct"),
                                                                                   ("bar", 200, "fbp")]
     assert len(jobs) == 8 and "phantom.objects.0.angle_deg.rate=300" in jobs[-1].overrides
+
+
+def test_files_without_their_scores_table_is_a_one_line_error_not_a_sweep(tmp_path, capsys):
+    for argv in (["--files", str(tmp_path)], ["--files", str(tmp_path), "--scores", str(tmp_path / "no.csv")]):
+        with pytest.raises(SystemExit) as stop:
+            TW.main([*argv, "--out", str(tmp_path / "out")])
+        assert stop.value.code == 2 and "error: --" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
