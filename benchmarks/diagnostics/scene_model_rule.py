@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nct.init.judge import explains_nothing
 from nct.run.tables import markdown_table
 from nct.select.candidates import BACKGROUND_ORDER, SceneModel
 from nct.select.scene import (
@@ -87,10 +88,12 @@ def judged(scene: Scene, model: SceneModel) -> float:
     not offered, select/scene.offered). No background: K = 1 on a steady mover's compensated frames where the views
     hold its path (``r_lone1``), else the plain frames. Over an image, the table's ``r_image`` (the judge's residual
     there times the norm of the views less the image's projection over the whole views'); where nothing moves a
-    run's objects there start empty: not offered. K > 1 with a rim among the objects (``inside`` under
+    run's objects there start empty: not offered. Objects the judge gives no intensity (``a`` all at its floor:
+    judge.explains_nothing) explain nothing: not offered. K > 1 with a rim among the objects (``inside`` under
     MIN_INTERIOR): not offered."""
     k, image = model.n_objects, model.background == "image"
-    if image and scene.value("moving_share") == 0:
+    levels = scene.row.get(f"a_{model.background}{k}") or ""
+    if image and scene.value("moving_share") == 0 or levels and explains_nothing(np.array(levels.split(), float)):
         return math.nan
     inside = scene.value(f"inside_{model.background}{k}")
     if k > 1 and inside < MIN_INTERIOR:

@@ -58,7 +58,7 @@ def test_the_table_holds_what_a_run_prices(tmp_path):
     (scene,) = R.read_scenes(tmp_path / "signals.csv")
     assert scene.truth == SceneModel(2, "none")
     models = [m for m in R.MODELS if m.n_objects <= 2]
-    setups = {m: s for m, s in run_setups(path, models).items() if offered(s.found.ranked[0].masks, chosen=True)}
+    setups = {m: s for m, s in run_setups(path, models).items() if offered(s.found.ranked[0], chosen=True)}
     assert SceneModel(1, "image") not in setups  # nothing moves: objects over an image start empty, not offered
     for model in models:
         run = setups[model].judged if model in setups else math.nan
@@ -96,14 +96,16 @@ def test_an_object_must_pay_for_itself_over_each_background():
 
 def test_the_residuals_a_run_prices():
     """K = 1 without a background reads the compensated frames where the views hold a path; over an image, the
-    residual relative to the whole views, as every model's; a rim among several objects, or objects over an image
-    where nothing moves, are not offered."""
+    residual relative to the whole views, as every model's; a rim among several objects, objects the judge gives
+    no intensity, or objects over an image where nothing moves, are not offered."""
     scene = scene_of([0.3, 0.2, 0.19, 0.19], [0.02] * 4, lone=0.1, image0=0.25)
     assert R.judged(scene, SceneModel(1)) == 0.1 and R.judged(scene, SceneModel(2)) == 0.2
     assert R.judged(scene, SceneModel(3, "image")) == 0.02
     assert R.judged(scene_of([0.3] * 4, [0.02] * 4), SceneModel(1)) == 0.3
     scene.row["inside_none2"] = "0.05"  # a rim: under MIN_INTERIOR of its pixels inside
     assert math.isnan(R.judged(scene, SceneModel(2))) and R.judged(scene, SceneModel(3)) == 0.19
+    scene.row["a_image1"] = "5e-14"  # the judge's floor: the object explains none of the views
+    assert math.isnan(R.judged(scene, SceneModel(1, "image"))) and R.judged(scene, SceneModel(2, "image")) == 0.02
     scene.row["moving_share"] = "0"  # nothing moves: a run's objects over the image start empty
     assert math.isnan(R.judged(scene, SceneModel(2, "image")))
 

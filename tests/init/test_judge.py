@@ -98,3 +98,18 @@ def test_judged_levels_find_a_nested_body(seed):
     sino, judge = acquire([disc(0.0, 0.0, 0.15, 0.26), inner])
     seg = segment(fbp_frames(sino, GRID, TIMES), 2, np.random.default_rng(seed), judge=judge)
     np.testing.assert_allclose(np.sort(seg.intensities), [0.26, 0.7], atol=0.05)
+
+
+def test_masks_that_explain_none_of_the_views_are_told_apart():
+    """Where the views hold only what a mask's object would take away (a background's start brighter than the
+    scene: the views left are negative), least squares gives it 0: floored to the judge's least intensity and
+    said to explain nothing; the same mask against the disc's own views is not."""
+    sino, judge = acquire([disc(0.0, 0.0, 0.2, 1.0)])
+    masks = sino.truth.frames[:, None] > 0.5
+    left = sinogram_judge(torch.as_tensor(TIMES), -torch.from_numpy(sino.values.astype(np.float32)),
+                          torch.as_tensor(sino.angles, dtype=torch.float32), torch.as_tensor(sino.times),
+                          sino.geometry, GRID.extent)
+    misfit, a = left(masks, np.ones(1))
+    assert judge_module.explains_nothing(a) and misfit == pytest.approx(1.0)
+    _, a = judge(masks, np.ones(1))
+    assert not judge_module.explains_nothing(a) and a[0] == pytest.approx(1.0, rel=0.05)

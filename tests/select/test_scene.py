@@ -5,8 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nct.init.judge import FLOOR, MIN_SHARE
+from nct.init.segmentation import Segmentation
 from nct.select.candidates import SceneModel
-from nct.select.scene import image_earned, interior, model_price, raced, up_to_dearer
+from nct.select.scene import image_earned, interior, model_price, offered, raced, up_to_dearer
 
 
 def labels(judged: dict[SceneModel, float], left: float = 0.3) -> list[str]:
@@ -66,3 +68,16 @@ def test_a_rim_has_no_inside():
     disc, ring = r < 8, (r >= 8) & (r < 9)
     assert interior(np.stack([disc, disc])[None]) > 0.7
     assert interior(np.stack([disc | ring, ring])[None]) == 0.0
+
+
+def test_objects_that_explain_nothing_are_not_offered():
+    """A model is priced only where its best segmentation's objects are drawn and together explain some of the
+    views: objects over an image of a still scene, which least squares gives 0 (the judge's floor), are not
+    (scene058: one such object over an image drew two still ellipses at 0.987 Dice against FBP's 0.998)."""
+    yy, xx = np.mgrid[:32, :32]
+    disc = (np.hypot(yy - 15.5, xx - 15.5) < 8)[None, None]
+    assert offered(Segmentation(disc, np.array([0.4])), chosen=True)
+    assert not offered(Segmentation(disc, np.array([MIN_SHARE * FLOOR])), chosen=True)
+    assert not offered(Segmentation(np.zeros_like(disc), np.array([0.4])), chosen=True)
+    two = np.concatenate([disc, np.roll(disc, 10, axis=-1)], axis=1)
+    assert offered(Segmentation(two, np.array([0.4, MIN_SHARE * 0.4])), chosen=True)  # one at the least share

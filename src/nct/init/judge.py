@@ -24,6 +24,7 @@ from nct.physics.projector import project
 MAX_VIEWS = 256  # views the judge projects: the residual of a few masks needs no more ...
 MAX_PIXELS = 2**25  # ... and fewer where their mask images would hold more pixels than this (memory)
 MIN_SHARE = 0.05  # an object's |intensity| is at least this share of the largest (log-parameterised |a(k)| > 0)
+FLOOR = 1e-12  # ... and the largest at least this: where every a(k) is 0 the masks explain nothing (`explains_nothing`)
 
 
 def sinogram_judge(
@@ -55,10 +56,16 @@ def sinogram_judge(
             columns.append(projected[key])
         measured = values[pick].reshape(-1).double().numpy()
         a, residual = nnls(torch.stack(columns, dim=1).numpy() * signs, measured)
-        a = np.maximum(a, MIN_SHARE * max(float(a.max()), 1e-12))
+        a = np.maximum(a, MIN_SHARE * max(float(a.max()), FLOOR))
         return residual / max(float(np.linalg.norm(measured)), 1e-30), signs * a
 
     return judge
+
+
+def explains_nothing(intensities: np.ndarray) -> bool:
+    """Whether a judged segmentation's ``intensities`` [K] are all at the judge's floor: least squares gave every
+    object 0, its masks explain none of the views (objects over a background where nothing moves)."""
+    return float(np.abs(intensities).max()) <= MIN_SHARE * FLOOR
 
 
 def picked(n_views: int, n_pixels: int) -> np.ndarray:

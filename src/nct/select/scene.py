@@ -20,7 +20,8 @@ from nct.fit.conf import HeldoutConf, LossConf
 from nct.fit.problem import Problem, prepare
 from nct.fit.session import Start
 from nct.init.conf import BackgroundConf, InitConf
-from nct.init.judge import views_norm
+from nct.init.judge import explains_nothing, views_norm
+from nct.init.segmentation import Segmentation
 from nct.init.starts import Found, Sought, search, sought
 from nct.select.candidates import BACKGROUND_ORDER, SceneModel
 
@@ -154,7 +155,7 @@ def _priced(prepared: Preparation, backgrounds: tuple[str, ...], counts: Sequenc
         except NoObjectError as err:
             errors.append(err)
             return None
-        return price(setups[model]) if offered(setups[model].found.ranked[0].masks, chosen) else None
+        return price(setups[model]) if offered(setups[model].found.ranked[0], chosen) else None
 
     prices = {m: p for b in backgrounds for m, p in up_to_dearer([SceneModel(k, b) for k in counts], priced).items()}
     if not prices:
@@ -186,11 +187,13 @@ def up_to_dearer(models: list[T], priced: Callable[[T], float | None]) -> dict[T
     return prices
 
 
-def offered(masks: np.ndarray, chosen: bool) -> bool:
-    """Whether a model whose best judged segmentation draws ``masks`` [F, K, H, W] is priced: every object found
-    (over a background where nothing moves the objects start empty), and where K is ``chosen`` from the data, none
-    of several a rim (``MIN_INTERIOR``)."""
-    if not masks.any(axis=(0, 2, 3)).all():
+def offered(best: Segmentation, chosen: bool) -> bool:
+    """Whether a model whose best judged segmentation is ``best`` is priced: every object found, and together
+    explaining some of the views (over a background where nothing moves the objects start empty, or are noise the
+    judge gives no intensity: `judge.explains_nothing`), and where K is ``chosen`` from the data, none of several a
+    rim (``MIN_INTERIOR``)."""
+    masks = best.masks
+    if not masks.any(axis=(0, 2, 3)).all() or explains_nothing(best.intensities):
         return False
     return not chosen or masks.shape[1] == 1 or interior(masks) >= MIN_INTERIOR
 
