@@ -16,8 +16,9 @@ from nct.acquisition.times import slow_rotation_warning
 from nct.moments.determinacy import MotionDeterminacy, determinacy_warnings, turn_warnings
 from nct.run.conf import SuspectConf
 from nct.run.consistency import FanSwing, GeometryCheck, OffsetEstimate, geometry_warnings
-from nct.run.suspect import HeldoutMisfits, suspect_warnings
+from nct.run.suspect import suspect_warnings
 from nct.run.tables import write_csv
+from nct.select.misfits import HeldoutMisfits
 from tests.conftest import load_benchmark
 
 W = load_benchmark("warning_rates")

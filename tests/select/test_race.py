@@ -1,10 +1,20 @@
-"""The race's order of fits: best started first, a band after its start's free fit."""
+"""The race's order of fits (best started first, a band after its start's free fit) and its reserve scene model."""
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
+from nct.acquisition.scanner import ImageGrid, Scanner
+from nct.fit.conf import LossConf
+from nct.method.reconstruct import reconstruct
+from nct.scenes.phantoms import ComposedConf, build_phantom
+from nct.scenes.simulate import simulate
 from nct.select.candidates import SceneModel, candidates
 from nct.select.conf import SelectionConf
 from nct.select.race import fit_order
+from tests.conftest import INIT, MODEL, NO_BACKGROUND, OPTIM, TRAINER, orbit, still
 
 
 def test_a_band_is_fitted_right_after_its_starts_free_fit():
@@ -27,3 +37,24 @@ def test_an_affine_fit_runs_right_after_its_starts_rigid_fit():
     assert [c.name for c in order] == ["free", "rigid", "affine", "static"]
     alone = [c for c in pool if c.rung != "rigid"]
     assert [c.name for c in fit_order(alone, {c: started[c.name] for c in alone})] == ["affine", "free", "static"]
+
+
+GRID = ImageGrid(32)
+
+
+def test_a_winner_worse_than_fbp_races_the_next_scene_model():
+    """The next scene model (select/scene.SceneChoice.reserve: here two objects, a faint still disc beside the
+    orbiting one, which the judge priced above one) joins the tournament only where the winner explains the
+    held-out views worse than fbp_ratio x FBP beyond the noise: at 0 any fit is, at inf none. Its candidates
+    carry its label; the first winner's fits are those of a run without it."""
+    scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
+    phantom = build_phantom(ComposedConf(objects=[orbit(0.2, 0.15, 60.0, 1.0), still(-0.25, -0.25, 0.1, 0.1, 0.15)]),
+                            scanner.rotation_time)
+    times = scanner.frame_times(6)
+    sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0))
+    raced, alone = (reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, logger="none", optim=OPTIM, init=INIT,
+                                background=NO_BACKGROUND, fbp_ratio=ratio) for ratio in (0.0, math.inf))
+    assert {(r["n_objects"], r["background"]) for r in alone.selection["table"]} == {(1, "none")}
+    assert {(r["n_objects"], r["background"]) for r in raced.selection["table"]} == {(1, "none"), (2, "none")}
+    assert all(r["candidate"].startswith("k2_none_") for r in raced.selection["table"] if r["n_objects"] == 2)
+    assert raced.stages["free_fit"]["misfit_end"] == alone.stages["free_fit"]["misfit_end"]

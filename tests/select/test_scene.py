@@ -2,13 +2,24 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from nct.init.judge import FLOOR, MIN_SHARE
 from nct.init.segmentation import Segmentation
 from nct.select.candidates import SceneModel
-from nct.select.scene import image_earned, interior, model_price, offered, raced, up_to_dearer
+from nct.select.scene import (
+    SceneChoice,
+    image_earned,
+    interior,
+    model_price,
+    offered,
+    raced,
+    up_to_dearer,
+    waiting,
+)
 
 
 def labels(judged: dict[SceneModel, float], left: float = 0.3) -> list[str]:
@@ -45,6 +56,24 @@ def test_an_image_must_earn_its_place():
     assert labels(plain | {SceneModel(1, "image"): 0.017}, left=0.99) == ["k1_none"]
     assert image_earned(0.99, {m: model_price(0.02, m) for m in image})  # a user's background=image: none plain
     assert not image_earned(0.1, {m: model_price(0.02, m) for m in plain})  # no model over an image priced
+
+
+def test_the_reserve_is_the_cheapest_model_not_raced_then_one_more_object():
+    """What a run races where its winner is worse than FBP (select/race.py): the priced models not raced, cheapest
+    first (an image only where it earned its place), then one more object than the winner, up to MAX_OBJECTS."""
+    prices = {m: model_price(r, m) for m, r in {SceneModel(1): 0.1, SceneModel(2): 0.11, SceneModel(3): 0.095,
+                                                 SceneModel(1, "image"): 0.09}.items()}
+    first = raced(prices, 0.99)
+    assert [m.label for m in first] == ["k1_none"]
+    assert waiting(prices, 0.99, first) == [SceneModel(2), SceneModel(3)]  # the image did not earn its place
+    assert waiting(prices, 0.5, raced(prices, 0.5)) == [SceneModel(2), SceneModel(3)]  # the image raced at first
+    setups = {m: SimpleNamespace(model=m) for m in (SceneModel(2), SceneModel(3), SceneModel(4, "image"))}
+    choice = SceneChoice([], [setups[SceneModel(3)]], setups.get)
+    assert choice.reserve({SceneModel(1)}, SceneModel(1)).model == SceneModel(3)
+    assert choice.reserve({SceneModel(1), SceneModel(3)}, SceneModel(1)).model == SceneModel(2)
+    assert choice.reserve({SceneModel(2), SceneModel(3)}, SceneModel(3)) is None  # no k4_none offered
+    assert choice.reserve({SceneModel(3)}, SceneModel(4, "image")) is None  # MAX_OBJECTS objects
+    assert SceneChoice([], []).reserve(set(), SceneModel(1)) is None  # K set by the user: none on demand
 
 
 def test_objects_are_priced_up_to_the_first_dearer_model():

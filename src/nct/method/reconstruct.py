@@ -39,8 +39,10 @@ from nct.fit.units import Units
 from nct.init.conf import BackgroundConf, InitConf
 from nct.init.sdf import binarise, masks_to_sdf
 from nct.method.fitted import FittedField, acquisition_span
+from nct.physics.conf import FBPConf
 from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
+from nct.select.misfits import heldout_misfits
 from nct.select.race import race
 from nct.select.scene import Preparation, SceneSetup, scene_setups
 from nct.select.tournament import Verdict
@@ -116,6 +118,7 @@ def reconstruct(
     background: BackgroundConf | None = None,
     resume: bool = False,
     lap: Callable[[str], None] = lambda phase: None,
+    fbp_ratio: float = 1.0,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
@@ -124,7 +127,9 @@ def reconstruct(
     x the starts) is fitted and scored on the held-out views in one tournament (select/race.py); the winner is
     refined (``optim.refine``). ``background=image``: a static image under the objects (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
-    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end.
+    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end. ``fbp_ratio``: a winner
+    whose held-out misfit beyond the noise is above this x FBP's races the next scene model by price too
+    (select/misfits.py; the run's ``suspect.fbp_ratio``, above which it warns).
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
@@ -132,12 +137,13 @@ def reconstruct(
     session = Session(trainer, log_dir, logger, heldout.check_every, resume, RunClock(), [], {})
     L.seed_everything(seed, verbose=False)
     prepared = Preparation(sino, grid, loss, init, heldout, background, (fbp_filter, fbp_window_deg))
-    setups = scene_setups(prepared, n_objects, seed)
+    choice = scene_setups(prepared, n_objects, seed)
     lap("initialisation")
-    verdict, fitted, nets = race(setups, session, model, seed, motion, optim, render)
+    fbp = FBPConf(fbp_filter, fbp_window_deg)
+    verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, motion, optim, render, choice.reserve,
+                                         lambda misfit: _worse_than_fbp(sino, grid, misfit, heldout, fbp, fbp_ratio))
     lap("tournament")
     winner = verdict.winner
-    chosen = next(s for s in setups if s.model == winner.scene)
     prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses
     net.load_state_dict(fitted[winner].state)
     log.info("selection: %s", verdict.reason)
@@ -154,6 +160,14 @@ def reconstruct(
         model={"motion": winner.rung, **asdict(winner.scene), "family": model.family, **net.describe()},
         selection=_selection(verdict, model, motion), init=_init_record(chosen, winner, init.levels),
         trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
+
+
+def _worse_than_fbp(sino: Sinogram, grid: ImageGrid, misfit: float, heldout: HeldoutConf, fbp: FBPConf,
+                    ratio: float) -> bool:
+    """Whether a fit with held-out ``misfit`` explains the held-out views worse than ``ratio`` x FBP, beyond the
+    noise (select/misfits.py); never where no view is held out."""
+    misfits = heldout_misfits(sino, grid, misfit, heldout, fbp)
+    return misfits is not None and misfits.above_fbp(ratio)
 
 
 def _check(n_objects: int | None, logger: str) -> None:

@@ -175,7 +175,8 @@ class ExportConf:
 class SuspectConf:
     """When ``nct.run.suspect`` warns that a fit is poor, from the held-out views' misfits beyond
     the noise's (config group ``suspect``; the measured separation is in conf/suspect/default.yaml).
-    ``fbp_ratio``: the fit's misfit above this × FBP's; ``excess``: the fit's misfit above this
+    ``fbp_ratio``: the fit's misfit above this × FBP's (where the run's first winner is, the next scene model
+    by price races too: select/race.py); ``excess``: the fit's misfit above this
     share of the views' mean |value|; ``offset_bins``: the detector offset the views' first moments
     call for (`nct.run.consistency`) above this many bins, when their centroid moves less than
     ``offset_motion_bins`` (RMS, bins) about a still object's; ``fan_radii``, ``fan_sigmas``: a

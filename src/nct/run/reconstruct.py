@@ -81,7 +81,7 @@ def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
         fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=chosen_objects(conf.data.n_objects),
         motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
         background=conf.background,
-        resume=conf.resume, lap=lap,
+        resume=conf.resume, lap=lap, fbp_ratio=conf.suspect.fbp_ratio,
     )
     lap("refinement")
     record = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model,
@@ -96,7 +96,8 @@ def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
     the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``, ``heldout_noise_loss``)."""
     if "heldout_loss" not in extra:
         return []
-    from nct.run.suspect import heldout_misfits, suspect_warnings
+    from nct.run.suspect import suspect_warnings
+    from nct.select.misfits import heldout_misfits
 
     misfits = heldout_misfits(scan.sinogram, scan.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
     if misfits is None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import logging
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -18,7 +19,7 @@ from nct.fit.conf import OptimConf, RenderConf
 from nct.fit.problem import Problem
 from nct.fit.session import Fitted, Session, at_rate, init_fit, sinogram_fit, streams
 from nct.init.starts import turned_start
-from nct.select.candidates import Candidate, candidates
+from nct.select.candidates import Candidate, SceneModel, candidates
 from nct.select.conf import SelectionConf
 from nct.select.scene import SceneSetup
 from nct.select.tournament import Tournament, Verdict
@@ -94,6 +95,10 @@ class Race:
                 log.warning("%s; a restart at %g of the rates joins the tournament", lost, RESTART_RATE)
                 queue.insert(0, replace(cand, restart=True))
 
+    def misfit(self, cand: Candidate) -> float:
+        """``cand``'s held-out misfit as the tournament entered it."""
+        return next(e.misfit for e in self.tournament.entries if e.candidate == cand)
+
     def verdict(self) -> Verdict:
         """The tournament's verdict; the first divergence where no candidate finished."""
         if self.diverged is not None and all(e.pruned for e in self.tournament.entries):
@@ -102,27 +107,48 @@ class Race:
 
 
 def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int, motion: SelectionConf,
-         optim: OptimConf, render: RenderConf) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField]]:
-    """Fit the candidates of the run's scene models and choose one (select/tournament.py). One scene model: every
+         optim: OptimConf, render: RenderConf,
+         reserve: Callable[[set[SceneModel], SceneModel], SceneSetup | None] = lambda raced, winner: None,
+         suspect: Callable[[float], bool] = lambda misfit: False,
+         ) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField], SceneSetup]:
+    """Fit the candidates of the run's scene models and choose one (select/tournament.py); also the chosen scene
+    model's setup. One scene model: every
     candidate in one round. Several: first each scene model's freest rung (the scene models compared at one rung),
-    then the chosen scene model's other candidates. A fit that ends above where it started, or explains the check
-    views no better than an empty image, has lost its way (an object fell out of the band, where no gradient
-    reaches it): a restart joins at ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh
-    draw of the field (its own weights and InitFit) where that InitFit explained nothing either. A fit that
+    then the chosen scene model's other candidates. Where the winner's held-out misfit is ``suspect`` (worse than
+    FBP's: select/misfits.py), the ``reserve`` scene model (select/scene.SceneChoice.reserve) races likewise, and
+    the next while each wins and the winner is still suspect. A fit that ends above where it started, or explains
+    the check views no better than an empty image, has lost its way (an object fell out of the band, where no
+    gradient reaches it): a restart joins at ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a
+    fresh draw of the field (its own weights and InitFit) where that InitFit explained nothing either. A fit that
     diverges drops out (its restart joins likewise); the run fails with its error only when no candidate
     finishes. Each candidate draws from its own streams (session.streams); the paper's field continues its scene
     model's generator."""
     state = Race(setups, session, model, seed, motion, optim, render)
-    named = len(setups) > 1
-    if not named:
-        state.run(_pool(setups[0], motion, named))
-        return state.verdict(), state.fitted, state.nets
+    if len(setups) == 1:
+        state.run(_pool(setups[0], motion, False))
+    else:
+        _in_rounds(state, setups, motion)
+    raced = {s.model for s in setups}
+    verdict = state.verdict()
+    while suspect(state.misfit(verdict.winner)) and (more := reserve(raced, verdict.winner.scene)) is not None:
+        log.info("%s explains the held-out views worse than FBP (misfit %.4g): %s, the next scene model, races too",
+                 verdict.winner.name, state.misfit(verdict.winner), more.model.label)
+        state.by_model[more.model] = more
+        raced.add(more.model)
+        _in_rounds(state, [more], motion)
+        verdict = state.verdict()
+        if verdict.winner.scene != more.model:
+            break
+    return verdict, state.fitted, state.nets, state.by_model[verdict.winner.scene]
+
+
+def _in_rounds(state: Race, setups: list[SceneSetup], motion: SelectionConf) -> None:
+    """Race ``setups``' scene models: first each one's freest rung (compared with every model raced before at that
+    rung), then the other candidates of the one the tournament then chooses, where it has not run them yet."""
     freest = replace(motion, rungs=[max(motion.rungs, key=RUNGS.index)], band_f_max=None)
-    first = [c for s in setups for c in candidates(freest, s.n_starts, s.prob.span, s.model, 0, named)]
-    state.run(first)
+    state.run([c for s in setups for c in candidates(freest, s.n_starts, s.prob.span, s.model, 0, True)])
     chosen = state.by_model[state.verdict().winner.scene]
-    state.run([c for c in _pool(chosen, motion, named) if c not in first])
-    return state.verdict(), state.fitted, state.nets
+    state.run([c for c in _pool(chosen, motion, True) if c not in state.started])
 
 
 def fit_order(pool: list[Candidate], started: dict[Candidate, float]) -> list[Candidate]:
