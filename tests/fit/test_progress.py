@@ -73,7 +73,8 @@ def test_without_a_bar_stages_log_progress_and_one_line_at_their_end(caplog, mon
                                                           n_terms=2), LossConf(),
                              TrainerConf(TrainerArgs(accelerator="cpu"),
                                          CallbacksConf(progress_bar=False, progress_every_s=1.0)), 0,
-                             logger="none", optim=optim, init=InitConf(frames_per_rotation=6), background=NO_BACKGROUND)
+                             logger="none", optim=optim, init=InitConf(frames_per_rotation=6), background=NO_BACKGROUND,
+                             n_objects=1)  # the model given: a fit this small is worse than FBP, and would race another
     # fields this small explain nothing in 6 steps: a restart joins (reconstruct.py's rule)
     planned = {"free_init": 4, "free_fit": 6, "free_restart_init": 4, "free_restart_fit": 6, "refine_init": 2,
                "refine_fit": 3}

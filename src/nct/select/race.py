@@ -144,11 +144,13 @@ def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int
 
 def _in_rounds(state: Race, setups: list[SceneSetup], motion: SelectionConf) -> None:
     """Race ``setups``' scene models: first each one's freest rung (compared with every model raced before at that
-    rung), then the other candidates of the one the tournament then chooses, where it has not run them yet."""
+    rung), then the other candidates of the one the tournament then chooses, those it has not run yet under
+    either name (a run's first model, raced alone, named its candidates without its label)."""
     freest = replace(motion, rungs=[max(motion.rungs, key=RUNGS.index)], band_f_max=None)
     state.run([c for s in setups for c in candidates(freest, s.n_starts, s.prob.span, s.model, 0, True)])
     chosen = state.by_model[state.verdict().winner.scene]
-    state.run([c for c in _pool(chosen, motion, True) if c not in state.started])
+    ran = {replace(c, scene_named=True) for c in state.started}
+    state.run([c for c in _pool(chosen, motion, True) if c not in ran])
 
 
 def fit_order(pool: list[Candidate], started: dict[Candidate, float]) -> list[Candidate]:
