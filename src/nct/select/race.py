@@ -112,17 +112,16 @@ def race(setups: list[SceneSetup], session: Session, model: ModelConf, seed: int
          suspect: Callable[[float], bool] = lambda misfit: False,
          ) -> tuple[Verdict, dict[Candidate, Fitted], dict[Candidate, SpaceTimeField], SceneSetup]:
     """Fit the candidates of the run's scene models and choose one (select/tournament.py); also the chosen scene
-    model's setup. One scene model: every
-    candidate in one round. Several: first each scene model's freest rung (the scene models compared at one rung),
-    then the chosen scene model's other candidates. Where the winner's held-out misfit is ``suspect`` (worse than
-    FBP's: select/misfits.py), the ``reserve`` scene model (select/scene.SceneChoice.reserve) races likewise, and
-    the next while each wins and the winner is still suspect. A fit that ends above where it started, or explains
-    the check views no better than an empty image, has lost its way (an object fell out of the band, where no
-    gradient reaches it): a restart joins at ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a
-    fresh draw of the field (its own weights and InitFit) where that InitFit explained nothing either. A fit that
-    diverges drops out (its restart joins likewise); the run fails with its error only when no candidate
-    finishes. Each candidate draws from its own streams (session.streams); the paper's field continues its scene
-    model's generator."""
+    model's setup. One scene model: every candidate in one round. Several: first each scene model's freest rung
+    (the scene models compared at one rung), then the chosen scene model's other candidates. Where the winner's
+    held-out misfit is ``suspect`` (worse than FBP's: select/misfits.py), the ``reserve`` scene model
+    (select/scene.SceneChoice.reserve) races likewise, and the next while each wins and the winner is still
+    suspect. A fit that ends above where it started, or explains the check views no better than an empty image,
+    has lost its way (an object fell out of the band, where no gradient reaches it): a restart joins at
+    ``RESTART_RATE`` of the rates, from the candidate's InitFit, or from a fresh draw of the field (its own weights
+    and InitFit) where that InitFit explained nothing either. A fit that diverges drops out (its restart joins
+    likewise); the run fails with its error only when no candidate finishes. Each candidate draws from its own
+    streams (session.streams); the paper's field continues its scene model's generator."""
     state = Race(setups, session, model, seed, motion, optim, render)
     if len(setups) == 1:
         state.run(_pool(setups[0], motion, False))
