@@ -8,7 +8,9 @@ held-out views in one tournament: fit/session.py, select/tournament.py) -> refin
 from __future__ import annotations
 
 import copy
+import functools
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -141,7 +143,7 @@ def reconstruct(
     lap("initialisation")
     fbp = FBPConf(fbp_filter, fbp_window_deg)
     verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, motion, optim, render, choice.reserve,
-                                         lambda misfit: _worse_than_fbp(sino, grid, misfit, heldout, fbp, fbp_ratio))
+                                         _worse_than_fbp(sino, grid, heldout, fbp, fbp_ratio))
     lap("tournament")
     winner = verdict.winner
     prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses
@@ -162,12 +164,18 @@ def reconstruct(
         trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
 
 
-def _worse_than_fbp(sino: Sinogram, grid: ImageGrid, misfit: float, heldout: HeldoutConf, fbp: FBPConf,
-                    ratio: float) -> bool:
-    """Whether a fit with held-out ``misfit`` explains the held-out views worse than ``ratio`` x FBP, beyond the
-    noise (select/misfits.py); never where no view is held out."""
-    misfits = heldout_misfits(sino, grid, misfit, heldout, fbp)
-    return misfits is not None and misfits.above_fbp(ratio)
+def _worse_than_fbp(sino: Sinogram, grid: ImageGrid, heldout: HeldoutConf, fbp: FBPConf,
+                    ratio: float) -> Callable[[float], bool]:
+    """Whether a fit with a given held-out misfit explains the held-out views worse than ``ratio`` x FBP, beyond the
+    noise (select/misfits.py); never where no view is held out. FBP's and the noise's misfits, the data's alone, are
+    computed once, at the first ask."""
+    references = functools.cache(lambda: heldout_misfits(sino, grid, 0.0, heldout, fbp))
+
+    def worse(misfit: float) -> bool:
+        base = references()
+        return base is not None and math.isfinite(misfit) and replace(base, nct=misfit).above_fbp(ratio)
+
+    return worse
 
 
 def _check(n_objects: int | None, logger: str) -> None:
