@@ -191,7 +191,9 @@ def report_rows(sweep: Path) -> list[dict[str, str]]:
 
 
 def test_joblib_multirun_then_report(tmp_path: Path):
-    done = run_nct(tmp_path, "-m", "seed=0,1", *TINY, "hydra/launcher=local")
+    """FBP-only jobs: what is tested is the launcher's worker processes and the report of their folders, not
+    the fit (the report's NeuralCT columns: tests/analysis/test_report.py)."""
+    done = run_nct(tmp_path, "-m", "seed=0,1", *TINY, "method=fbp", "hydra/launcher=local")
     assert done.returncode == 0, done.stderr[-3000:]
     assert "\t#1 : seed=1 " in quiet(done)  # the job list stays
     # one sweep folder for the whole sweep, although each job ran in its own worker process
@@ -202,8 +204,7 @@ def test_joblib_multirun_then_report(tmp_path: Path):
         rows = list(csv.DictReader(fh))
     assert [(r["job"], r["seed"], r["status"]) for r in rows] == [("0", "0", "ok"), ("1", "1", "ok")]
     for row in rows:
-        assert 0.0 <= float(row["nct.median_dice"]) <= 1.0 and 0.0 <= float(row["fbp.median_dice"]) <= 1.0
-        assert float(row["heldout_loss"]) > 0 and float(row["wall_time_s"]) > 0
+        assert 0.0 <= float(row["fbp.median_dice"]) <= 1.0 and float(row["wall_time_s"]) > 0
     assert (sweep / "report" / "accuracy_vs_time.png").is_file()
     assert "2 jobs: 2 ok." in (sweep / "report" / "summary.md").read_text()
 

@@ -17,10 +17,10 @@ import pytest
 from nct.cli.resume import resume_arguments
 from nct.errors import InputError
 
-# A tiny run whose sinogram fit lasts a few seconds, long enough to be killed in; seed=1: a setting the
+# A tiny run whose sinogram fit lasts a second or two (80 steps), long enough to be killed in; seed=1: a setting the
 # resume must take from the run's record.
 RUN = ["debug=tiny", "logger=none", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false",
-       "optim.fit_steps=200", "seed=1", "data.n_objects=1", "background=none"]
+       "optim.fit_steps=80", "seed=1", "data.n_objects=1", "background=none"]
 
 
 def files(folder: Path) -> dict[str, bytes | None]:
