@@ -4,6 +4,7 @@ every way the data come."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -103,3 +104,21 @@ def test_a_file_and_its_i0_are_checked(disc, tmp_path):
     with pytest.raises(InputError, match="i0 must be a finite number > 0"):
         Scan.from_file(tmp_path / "scan.npz", i0=-3.0)
     assert Scan.from_file(tmp_path / "scan.npz", i0=500).sinogram.i0 == 500.0
+
+
+@pytest.mark.parametrize("fan", [False, True])
+def test_a_fit_of_a_large_scan_reads_its_views_binned_onto_a_smaller_grid(fan):
+    """optim.fit_size: bins averaged in groups of size // fit_size on the bins' mean positions (30 bins by 4: one
+    left out at each edge), the counts that many times a bin's; a scan under twice fit_size is its own."""
+    sino = moving_disc()[0]
+    geometry = (FanGeometry(30, sino.geometry.bin_spacing, 3.0, 3.0, detector_offset=0.01) if fan
+                else ParallelGeometry(30, sino.geometry.bin_spacing, detector_offset=0.01))
+    values = np.random.default_rng(0).random((sino.n_views, 30)).astype(np.float32)
+    scan = Scan.of(replace(sino, values=values, geometry=geometry, i0=100.0), ImageGrid(32, 1.0), np.array([0.1]))
+    small = scan.to_fit(8)
+    assert (small.grid.size, small.grid.extent, small.sinogram.n_bins, small.sinogram.i0) == (8, 1.0, 7, 400.0)
+    assert small.truth is None and type(small.sinogram.geometry) is type(geometry) and list(small.frame_times) == [0.1]
+    np.testing.assert_allclose(small.sinogram.values, values[:, 1:29].reshape(-1, 7, 4).mean(-1), rtol=1e-6)
+    centres = geometry.bin_positions[1:29].reshape(7, 4).mean(-1)
+    np.testing.assert_allclose(small.sinogram.geometry.bin_positions, centres, atol=1e-12)
+    assert scan.to_fit(17) is scan and scan.to_fit(None) is scan and scan.to_fit(16).grid.size == 16

@@ -26,7 +26,7 @@ QUICK = ["debug=tiny", "logger=none", "method=fbp"]
     (["+optim.learning_rate=1"], "unknown key optim.learning_rate: not a setting of optim (OptimConf); its keys: "
                                  "init_steps, fit_steps, refine, refine_init_steps, refine_fit_steps, refine_lr, lr, "
                                  "warmup_steps, lr_decay, lr_decay_every, batch_views, min_loss, fit_intensities, "
-                                 "intensity_lr, background_lr, divergence_factor, coarse_size"),
+                                 "intensity_lr, background_lr, divergence_factor, coarse_size, fit_size"),
     # a config group is the nearer name (not the key export); a key of another option of its group names that option
     (["expriment=heart_cine"], "unknown key expriment: not a setting of the config; did you mean the config group "
                                "experiment (experiment=<option>: bar, circle, heart, heart_cine, letters, nodule, "

@@ -170,6 +170,16 @@ class Scan:
         sino = sino if i0 is None else replace(sino, i0=float(i0))
         return cls.of(sino, *output_grid(sino, size, extent, frames_per_rotation), times_unit)
 
+    def to_fit(self, fit_size: int | None) -> Scan:
+        """The scan a fit reads: this one, or where its grid is at least twice ``fit_size`` (None: never), its
+        views binned by the factor f = size // fit_size onto a grid of size // f pixels over the same field
+        (`Sinogram.binned`; no truth); the frames' times the same."""
+        factor = self.grid.size // fit_size if fit_size else 1
+        if factor < 2 or self.sinogram.n_bins < 2 * factor:
+            return self
+        return Scan.of(self.sinogram.binned(factor), ImageGrid(self.grid.size // factor, self.grid.extent),
+                       self.frame_times, self.times_unit, self.simulated)
+
     @property
     def truth(self) -> Truth | None:
         """The true frames for scoring, when the data came with them."""

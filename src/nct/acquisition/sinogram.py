@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -58,3 +58,16 @@ class Sinogram:
     @property
     def n_bins(self) -> int:
         return int(self.values.shape[1])
+
+    def binned(self, factor: int) -> Sinogram:
+        """The views with every ``factor`` adjacent bins averaged (no truth: it is what a coarser detector
+        measures, for a fit): each bin ``factor`` times as wide at its bins' mean position, ``n_bins % factor``
+        bins left out at the edges (half each side), the incident counts ``factor`` times a bin's."""
+        keep = self.n_bins // factor * factor
+        start = (self.n_bins - keep) // 2
+        values = self.values[:, start:start + keep].reshape(self.n_views, -1, factor).mean(axis=-1, dtype=np.float64)
+        g = self.geometry
+        geometry = replace(g, n_bins=keep // factor, bin_spacing=g.bin_spacing * factor,
+                           detector_offset=float(g.bin_positions[start:start + keep].mean()))
+        return replace(self, values=values.astype(np.float32), geometry=geometry, truth=None,
+                       i0=None if self.i0 is None else self.i0 * factor)

@@ -122,6 +122,9 @@ class OptimConf:
     upsampled to the image for rendering and the losses (an SDF is smooth, so little is lost and
     the field costs (image / coarse)^2 less per step); the refinement uses the image's own
     lattice. null, or not below the image size: the image's lattice throughout.
+    fit_size: where the image is at least twice this size (pixels a side), the fit reads the views binned by
+    f = size // fit_size onto a grid of size // f (`Scan.to_fit`) and the output frames are its field drawn at
+    the image's size (run/reconstruct.py); null: the fit at the image's size.
     """
 
     init_steps: int = 300
@@ -141,10 +144,12 @@ class OptimConf:
     background_lr: float = 5e-3
     divergence_factor: float = 20.0
     coarse_size: Optional[int] = 64
+    fit_size: Optional[int] = None
 
     def __post_init__(self) -> None:
-        require(self.coarse_size is None or self.coarse_size >= 8, "optim.coarse_size", ">= 8 or null",
-                self.coarse_size)
+        for key in ("coarse_size", "fit_size"):
+            require(getattr(self, key) is None or getattr(self, key) >= 8, f"optim.{key}", ">= 8 or null",
+                    getattr(self, key))
         for key in ("lr_decay_every", "batch_views"):
             require(getattr(self, key) >= 1, f"optim.{key}", ">= 1", getattr(self, key))
         for key in ("init_steps", "fit_steps", "refine_init_steps", "refine_fit_steps", "warmup_steps", "min_loss"):

@@ -34,9 +34,13 @@ def intensity(sdf: Tensor, intensities: Tensor, band: float, mu: float, backgrou
     if background is None:
         return images
     if background.shape != images.shape[1:]:
-        background = F.interpolate(background[None, None], size=images.shape[1:], mode="bilinear",
-                                   align_corners=False)[0, 0]
+        background = resampled(background[None], images.shape[1:])[0]
     return images + background
+
+
+def resampled(images: Tensor, size: tuple[int, int]) -> Tensor:
+    """Images [N, h, w] resampled bilinearly to [N, *size] over the same field (pixel centres: align_corners off)."""
+    return F.interpolate(images[:, None], size=tuple(size), mode="bilinear", align_corners=False)[:, 0]
 
 
 def project_frames(

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import logging
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,12 +71,21 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
 def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
               lap: Callable[[str], None]) -> Reconstruction:
     """NeuralCT's frames, parts and record beside the FBP frames ``fbp`` (method/reconstruct.py)."""
-    from nct.method.reconstruct import reconstruct
+    import torch
 
+    from nct.fit.render import resampled
+    from nct.method.reconstruct import reconstruct
+    from nct.method.reload import render
+
+    fitted = scan.to_fit(conf.optim.fit_size)
+    if fitted is not scan:
+        log.info("NeuralCT: fitted to the views binned to %d bins on %d x %d pixels (optim.fit_size=%d), its field "
+                 "drawn at %d x %d", fitted.sinogram.n_bins, fitted.grid.size, fitted.grid.size, conf.optim.fit_size,
+                 scan.grid.size, scan.grid.size)
     log.info("NeuralCT: initialising (the FBP frames segmented, the starts judged on the views) ...")
     trainer = TrainerConf(conf.trainer, conf.callbacks)  # each stage's Trainer: its arguments and callbacks
     result = reconstruct(
-        scan.sinogram, scan.grid, scan.frame_times, conf.model, conf.loss, trainer, conf.seed,
+        fitted.sinogram, fitted.grid, scan.frame_times, conf.model, conf.loss, trainer, conf.seed,
         log_dir=log_dir, logger=conf.logger.name,
         fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=chosen_objects(conf.data.n_objects),
         motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
@@ -87,8 +96,18 @@ def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
     record = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model,
               "selection": result.selection, "stages": result.stages,
               "intensities": [float(a) for a in result.intensities], "init": result.init}
-    return Reconstruction(scan, fbp, result.frames, result.sdf > 0, result.background, record=record,
-                          fitted=result.fitted, trace=result.trace)
+    if fitted is scan:
+        return Reconstruction(scan, fbp, result.frames, result.sdf > 0, result.background, record=record,
+                              fitted=result.fitted, trace=result.trace)
+    record["fitted_on"] = {"n_bins": fitted.sinogram.n_bins, "size": fitted.grid.size}
+    frames, sdf = render(result.fitted, scan.frame_times, scan.grid.size)  # the field drawn at the image's size
+
+    def drawn(images: np.ndarray) -> np.ndarray:  # [N, h, w] resampled as a drawn field's background is
+        return resampled(torch.from_numpy(np.ascontiguousarray(images)), (scan.grid.size,) * 2).numpy()
+
+    trace = [replace(point, frames=drawn(point.frames)) for point in result.trace]
+    background = None if result.background is None else drawn(result.background[None])[0]
+    return Reconstruction(scan, fbp, frames, sdf > 0, background, record=record, fitted=result.fitted, trace=trace)
 
 
 def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
@@ -99,7 +118,8 @@ def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
     from nct.run.suspect import suspect_warnings
     from nct.select.misfits import heldout_misfits
 
-    misfits = heldout_misfits(scan.sinogram, scan.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
+    fitted = scan.to_fit(conf.optim.fit_size)  # the views the fit's misfit is of
+    misfits = heldout_misfits(fitted.sinogram, fitted.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
     if misfits is None:
         return []
     extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
