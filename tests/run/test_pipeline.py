@@ -347,8 +347,8 @@ def test_trace_scores_the_field_over_the_run_without_changing_it(tiny_cfg, tmp_p
 def test_trace_ends_with_the_winners_field_whichever_candidate_ran_last(tiny_cfg, tmp_path):
     """motion.rungs [static, free] on the static experiment: static wins within tolerance; the trace's last
     point is the winner's output field (a point of its own where another candidate ran after it)."""
-    run_job(tiny_cfg("experiment=static", "motion.rungs=[static,free]", "motion.tolerance=0.5", "optim.init_steps=80",
-                     "optim.fit_steps=80", "callbacks.snapshot_every_n_steps=40", "logger=none", "export.gif=false",
+    run_job(tiny_cfg("experiment=static", "motion.rungs=[static,free]", "motion.tolerance=0.5", "optim.init_steps=40",
+                     "optim.fit_steps=40", "callbacks.snapshot_every_n_steps=20", "logger=none", "export.gif=false",
                      "export.tiff=false", "export.png=false"), tmp_path)
     metrics = read(tmp_path / "metrics.json")
     assert metrics["model"]["motion"] == "static" and metrics["selection"]["winner"].startswith("static")
