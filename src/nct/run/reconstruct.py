@@ -53,13 +53,14 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
     log.info("FBP: %d frames of %d x %d pixels ...", len(scan.frame_times), grid.size, grid.size)
     fbp = fbp_frames(sino, grid, scan.frame_times, conf.fbp.window_deg, conf.fbp.filter).astype(np.float32, copy=False)
     lap("fbp")
-    rec = Reconstruction(scan, fbp) if conf.method != "nct" else _neuralct(scan, conf, fbp, log_dir, lap)
+    fitted = scan.to_fit(conf.optim.fit_size) if conf.method == "nct" else scan  # the views NeuralCT fits
+    rec = Reconstruction(scan, fbp) if conf.method != "nct" else _neuralct(scan, fitted, conf, fbp, log_dir, lap)
     measured = not scan.simulated
     extra = dict(rec.record)
     rec.warnings = ((slow_rotation_warning(sino.angles, sino.times, scan.times_unit) if measured else [])
                     + determinacy_warnings(motion) + turn_warnings(turn)
                     + (geometry_warnings(geometry, sino, conf.suspect) if measured else [])
-                    + suspect_fit(conf, scan, extra))
+                    + suspect_fit(conf, fitted, extra))
     lap("checks")
     record = {"times": scan.frame_times.tolist(), **extra,
               "motion_determinacy": asdict(motion) if motion is not None else None, "turn_coverage_deg": turn,
@@ -68,16 +69,16 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
     return rec
 
 
-def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
+def _neuralct(scan: Scan, fitted: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
               lap: Callable[[str], None]) -> Reconstruction:
-    """NeuralCT's frames, parts and record beside the FBP frames ``fbp`` (method/reconstruct.py)."""
+    """NeuralCT's frames, parts and record beside the FBP frames ``fbp`` (method/reconstruct.py), fitted to
+    ``fitted`` (``scan.to_fit``: ``scan`` itself, or its views binned) and drawn on ``scan``'s grid."""
     import torch
 
     from nct.fit.render import resampled
     from nct.method.reconstruct import reconstruct
     from nct.method.reload import render
 
-    fitted = scan.to_fit(conf.optim.fit_size)
     if fitted is not scan:
         log.info("NeuralCT: fitted to the views binned to %d bins on %d x %d pixels (optim.fit_size=%d), its field "
                  "drawn at %d x %d", fitted.sinogram.n_bins, fitted.grid.size, fitted.grid.size, conf.optim.fit_size,
@@ -111,15 +112,15 @@ def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
 
 
 def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
-    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`), none without one; adds FBP's and
-    the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``, ``heldout_noise_loss``)."""
+    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`) to ``scan``'s views (those it fitted), none
+    without one; adds FBP's and the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``,
+    ``heldout_noise_loss``)."""
     if "heldout_loss" not in extra:
         return []
     from nct.run.suspect import suspect_warnings
     from nct.select.misfits import heldout_misfits
 
-    fitted = scan.to_fit(conf.optim.fit_size)  # the views the fit's misfit is of
-    misfits = heldout_misfits(fitted.sinogram, fitted.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
+    misfits = heldout_misfits(scan.sinogram, scan.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
     if misfits is None:
         return []
     extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
