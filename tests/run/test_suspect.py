@@ -34,3 +34,13 @@ def test_thresholds_come_from_the_config():
     assert suspect_warnings(misfits, SuspectConf(excess=0.05), True)
     with pytest.raises(ValueError, match="suspect.excess"):
         SuspectConf(excess=0.0)
+
+
+def test_the_default_limit_lies_between_a_good_fast_turning_fit_and_a_thorax_told_one_object():
+    """Measured misfits (session 65): scene029, two fast-turning ellipses fitted 7.5x below FBP's MSE, whose views
+    FBP's centred frames reproject closely (1.19x FBP's beyond the noise), is quiet; the thorax told one object and no
+    background (its heart lost, MSE 12x FBP's; 1.49x) is warned, though what it leaves unexplained (0.058) is below
+    suspect.excess."""
+    good, poor = HeldoutMisfits(0.0367, 0.0318, 0.0053), HeldoutMisfits(0.0578, 0.0387, 4.69e-5)
+    assert suspect_warnings(good, SuspectConf(), False) == []
+    assert [("FBP's" in w) for w in suspect_warnings(poor, SuspectConf(), False)] == [True]

@@ -45,7 +45,7 @@ GRID = ImageGrid(32)
 def test_a_winner_worse_than_fbp_races_the_next_scene_model():
     """The next scene model (select/scene.SceneChoice.reserve: here two objects, a faint still disc beside the
     orbiting one, which the judge priced above one) joins the tournament only where the winner explains the
-    held-out views worse than fbp_ratio x FBP beyond the noise: at 0 any fit is, at inf none. Its candidates
+    held-out views worse than motion.fbp_ratio x FBP beyond the noise: at 0 any fit is, at inf none. Its candidates
     carry its label; the first winner's fits are those of a run without it, and where it loses they are not run
     again under its label."""
     scanner = Scanner(views_per_rotation=60, rotations=1.0, rotation_time=0.25, n_bins=32, bin_spacing=1 / 32)
@@ -54,7 +54,7 @@ def test_a_winner_worse_than_fbp_races_the_next_scene_model():
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0))
     raced, alone = (reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, logger="none", optim=OPTIM, init=INIT,
-                                background=NO_BACKGROUND, fbp_ratio=ratio) for ratio in (0.0, math.inf))
+                                background=NO_BACKGROUND, motion=SelectionConf(fbp_ratio=ratio)) for ratio in (0.0, math.inf))
     assert {(r["n_objects"], r["background"]) for r in alone.selection["table"]} == {(1, "none")}
     assert {(r["n_objects"], r["background"]) for r in raced.selection["table"]} == {(1, "none"), (2, "none")}
     assert all(r["candidate"].startswith("k2_none_") for r in raced.selection["table"] if r["n_objects"] == 2)
@@ -70,7 +70,7 @@ def test_where_the_next_scene_model_loses_the_first_one_is_not_raced_again():
     sino = simulate(build_phantom(CircleConf(), scanner.rotation_time), scanner, GRID, times, None,
                     np.random.default_rng(0))
     result = reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, logger="none", optim=OPTIM, init=INIT,
-                         background=NO_BACKGROUND, fbp_ratio=0.0)
+                         background=NO_BACKGROUND, motion=SelectionConf(fbp_ratio=0.0))
     rows = result.selection["table"]
     assert result.selection["winner"] == "free" and any(r["n_objects"] == 2 for r in rows)
     assert [r["candidate"] for r in rows if r["n_objects"] == 1] == ["free"]

@@ -120,7 +120,6 @@ def reconstruct(
     background: BackgroundConf | None = None,
     resume: bool = False,
     lap: Callable[[str], None] = lambda phase: None,
-    fbp_ratio: float = 1.0,
 ) -> NCTResult:
     """Reconstruct intensity frames at ``frame_times`` [F] (s) on ``grid``; never reads ``sino.truth``.
 
@@ -129,9 +128,8 @@ def reconstruct(
     x the starts) is fitted and scored on the held-out views in one tournament (select/race.py); the winner is
     refined (``optim.refine``). ``background=image``: a static image under the objects (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.
-    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end. ``fbp_ratio``: a winner
-    whose held-out misfit beyond the noise is above this x FBP's races the next scene model by price too
-    (select/misfits.py; the run's ``suspect.fbp_ratio``, above which it warns).
+    ``lap``: the caller's stopwatch, told as ``initialisation`` and ``tournament`` end. A winner whose held-out
+    misfit beyond the noise is above ``motion.fbp_ratio`` x FBP's races the next scene model by price too.
     """
     motion, optim, render = motion or SelectionConf(), optim or OptimConf(), render or RenderConf()
     init, heldout, background = init or InitConf(), heldout or HeldoutConf(), background or BackgroundConf()
@@ -143,7 +141,7 @@ def reconstruct(
     lap("initialisation")
     fbp = FBPConf(fbp_filter, fbp_window_deg)
     verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, motion, optim, render, choice.reserve,
-                                         _worse_than_fbp(sino, grid, heldout, fbp, fbp_ratio))
+                                         _worse_than_fbp(sino, grid, heldout, fbp, motion.fbp_ratio))
     lap("tournament")
     winner = verdict.winner
     prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses

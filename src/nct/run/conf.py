@@ -175,15 +175,15 @@ class ExportConf:
 class SuspectConf:
     """When ``nct.run.suspect`` warns that a fit is poor, from the held-out views' misfits beyond
     the noise's (config group ``suspect``; the measured separation is in conf/suspect/default.yaml).
-    ``fbp_ratio``: the fit's misfit above this × FBP's (where the run's first winner is, the next scene model
-    by price races too: select/race.py); ``excess``: the fit's misfit above this
+    ``fbp_ratio``: the fit's misfit above this × FBP's (the race's own limit, below it, is
+    ``motion.fbp_ratio``); ``excess``: the fit's misfit above this
     share of the views' mean |value|; ``offset_bins``: the detector offset the views' first moments
     call for (`nct.run.consistency`) above this many bins, when their centroid moves less than
     ``offset_motion_bins`` (RMS, bins) about a still object's; ``fan_radii``, ``fan_sigmas``: a
     parallel-beam file whose view totals swing like a fan beam's with the source to detector within
     this many field radii, the swing more than this many standard errors clear of none."""
 
-    fbp_ratio: float = 1.0
+    fbp_ratio: float = 1.25
     excess: float = 0.1
     offset_bins: float = 1.0
     offset_motion_bins: float = 0.5

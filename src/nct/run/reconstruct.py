@@ -91,7 +91,7 @@ def _neuralct(scan: Scan, fitted: Scan, conf: NCTConf, fbp: np.ndarray, log_dir:
         fbp_filter=conf.fbp.filter, fbp_window_deg=conf.fbp.window_deg, n_objects=chosen_objects(conf.data.n_objects),
         motion=conf.motion, optim=conf.optim, render=conf.render, init=conf.init, heldout=conf.heldout,
         background=conf.background,
-        resume=conf.resume, lap=lap, fbp_ratio=conf.suspect.fbp_ratio,
+        resume=conf.resume, lap=lap,
     )
     lap("refinement")
     record = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model,

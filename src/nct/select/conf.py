@@ -34,6 +34,11 @@ class SelectionConf:
         their held-out misfit at the end); from half the steps, 4 of 18 generalisation scenes whose truth's model was
         stopped at step 300 chose it, each at a better Dice and MSE, for 1.29x their time
         (benchmarks/results/generalisation/scene_budget).
+    fbp_ratio: a winner whose held-out misfit beyond the noise's is above this x FBP's races the next scene model by
+        price too (select/race.py): a first winner worse than FBP on the views its fit never saw was a scene model the
+        judge priced wrong on four of the 100 generalisation scenes (benchmarks/results/generalisation/reserve). A
+        race costs time, never the result (the held-out views still choose), so it starts below the limit at which
+        the run warns (suspect.fbp_ratio); 0: every winner races the next model, .inf: none does.
     """
 
     rungs: list[str] = field(default_factory=lambda: ["free"])
@@ -44,6 +49,7 @@ class SelectionConf:
     milestone_margin: float = 0.05
     scene_tolerance: float = 0.1
     scene_budget: float = 0.5
+    fbp_ratio: float = 1.0
 
     def __post_init__(self) -> None:
         require(len(self.rungs) >= 1 and all(r in RUNGS for r in self.rungs), "motion.rungs",
@@ -53,5 +59,6 @@ class SelectionConf:
         require(self.tolerance >= 0, "motion.tolerance", ">= 0", self.tolerance)
         require(self.scene_tolerance >= 0, "motion.scene_tolerance", ">= 0", self.scene_tolerance)
         require(0 <= self.scene_budget <= 1, "motion.scene_budget", "in [0, 1]", self.scene_budget)
+        require(self.fbp_ratio >= 0, "motion.fbp_ratio", ">= 0", self.fbp_ratio)
         require(self.milestone_margin >= 0, "motion.milestone_margin", ">= 0", self.milestone_margin)
         require(self.band_f_max is None or self.band_f_max > 0, "motion.band_f_max", "> 0 or null", self.band_f_max)

@@ -37,7 +37,8 @@ class HeldoutMisfits:
 
     def above_fbp(self, ratio: float) -> bool:
         """Whether, beyond the noise, the fit misfits the held-out views more than ``ratio`` x FBP does: the
-        run then races the next scene model (select/race.py) and, if still so, warns (run/suspect.py)."""
+        race then races the next scene model (select/race.py, ``motion.fbp_ratio``), the run warns
+        (run/suspect.py, ``suspect.fbp_ratio``)."""
         return self.nct - self.noise > ratio * (self.fbp - self.noise)
 
 
