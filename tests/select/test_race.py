@@ -54,7 +54,8 @@ def test_a_winner_worse_than_fbp_races_the_next_scene_model():
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, GRID, times, None, np.random.default_rng(0))
     raced, alone = (reconstruct(sino, GRID, times, MODEL, LossConf(), TRAINER, 0, logger="none", optim=OPTIM, init=INIT,
-                                background=NO_BACKGROUND, motion=SelectionConf(fbp_ratio=ratio)) for ratio in (0.0, math.inf))
+                                background=NO_BACKGROUND, motion=SelectionConf(fbp_ratio=ratio))
+                    for ratio in (0.0, math.inf))
     assert {(r["n_objects"], r["background"]) for r in alone.selection["table"]} == {(1, "none")}
     assert {(r["n_objects"], r["background"]) for r in raced.selection["table"]} == {(1, "none"), (2, "none")}
     assert all(r["candidate"].startswith("k2_none_") for r in raced.selection["table"] if r["n_objects"] == 2)
