@@ -30,3 +30,16 @@ def test_sizes_beyond_the_memory_are_refused_before_allocating(nct, tmp_path, mo
     monkeypatch.setattr(memory, "physical_memory", lambda: 68 * 2**20)
     with pytest.raises(InputError, match=r"^image\.size=128: the run would need about 68\.4 MiB .* machine's 68 MiB$"):
         validate(compose_config([]))
+
+
+def test_a_large_image_fitted_small_is_sized_by_the_grid_it_fits(monkeypatch):
+    """512^2 pixels x (1150 + 16 x 36 frames) + 16 x 720 x 512 bytes = 477 MiB with the fit on 128^2 pixels
+    (128 x 20 views a pixel: 40 MiB); fitted at 512^2 the fit alone would need 640 MiB."""
+    big = ["image.size=512", "scanner.n_bins=512"]
+    monkeypatch.setattr(memory, "physical_memory", lambda: 478 * 2**20)
+    validate(compose_config([*big, "optim.fit_size=128"]))
+    with pytest.raises(InputError, match=r"^image\.size=512: the run would need about 1\.05 GiB"):
+        validate(compose_config(big))
+    monkeypatch.setattr(memory, "physical_memory", lambda: 476 * 2**20)
+    with pytest.raises(InputError, match=r"^image\.size=512: the run would need about 477 MiB"):
+        validate(compose_config([*big, "optim.fit_size=128"]))

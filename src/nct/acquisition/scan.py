@@ -172,10 +172,10 @@ class Scan:
 
     def to_fit(self, fit_size: int | None) -> Scan:
         """The scan a fit reads: this one, or where its grid is at least twice ``fit_size`` (None: never), its
-        views binned by the factor f = size // fit_size onto a grid of size // f pixels over the same field
-        (`Sinogram.binned`; no truth); the frames' times the same."""
-        factor = self.grid.size // fit_size if fit_size else 1
-        if factor < 2 or self.sinogram.n_bins < 2 * factor:
+        views binned by the factor f = size // fit_size (`ImageGrid.fit_factor`) onto a grid of size // f pixels
+        over the same field (`Sinogram.binned`; no truth); the frames' times the same."""
+        factor = self.grid.fit_factor(fit_size, self.sinogram.n_bins)
+        if factor == 1:
             return self
         return Scan.of(self.sinogram.binned(factor), ImageGrid(self.grid.size // factor, self.grid.extent),
                        self.frame_times, self.times_unit, self.simulated)

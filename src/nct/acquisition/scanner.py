@@ -48,6 +48,13 @@ class ImageGrid:
         """The same field of view sampled ``factor`` times finer."""
         return ImageGrid(self.size * factor, self.extent)
 
+    def fit_factor(self, fit_size: int | None, n_bins: int) -> int:
+        """The factor by which a fit of this grid at ``fit_size`` pixels (``optim.fit_size``; None: never) bins its
+        ``n_bins`` detector bins and coarsens the grid: size // fit_size where that is at least 2 and the detector
+        holds at least twice as many bins; else 1 (the fit reads the views as they are)."""
+        factor = self.size // fit_size if fit_size else 1
+        return factor if factor >= 2 and n_bins >= 2 * factor else 1
+
 
 @dataclass(frozen=True)
 class Scanner:

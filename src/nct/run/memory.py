@@ -8,6 +8,7 @@ import math
 import os
 from dataclasses import dataclass
 
+from nct.acquisition.scanner import ImageGrid
 from nct.errors import InputError
 from nct.run.conf import SimulateConf
 from nct.run.schema import NCTConf
@@ -34,11 +35,13 @@ def check_memory(conf: NCTConf, run: RunSize, image_key: str, data_key: str) -> 
     """Refuse, before allocating, a run whose largest arrays exceed this machine's physical memory,
     naming ``image_key`` (what sets the image size) or ``data_key`` (the sinogram's), whichever costs
     more. Physical memory, not the memory free now: no run can pass it, while what is free changes
-    with the jobs beside this one (a sweep's)."""
+    with the jobs beside this one (a sweep's). A fit's render and gradients are sized by the grid it fits
+    (``optim.fit_size``: a large image fitted on a smaller one)."""
     total = physical_memory()
-    per_pixel = (RASTER_BYTES * isinstance(conf.data, SimulateConf) + FRAME_BYTES * run.n_frames
-                 + FIT_BYTES * conf.optim.batch_views * (conf.method == "nct"))
-    image, sinogram = run.size**2 * per_pixel, VIEW_BYTES * run.n_views * run.n_bins
+    fitted = run.size // ImageGrid(run.size).fit_factor(conf.optim.fit_size, run.n_bins)  # the fit's own grid
+    per_pixel = RASTER_BYTES * isinstance(conf.data, SimulateConf) + FRAME_BYTES * run.n_frames
+    fit = FIT_BYTES * conf.optim.batch_views * (conf.method == "nct") * fitted**2
+    image, sinogram = run.size**2 * per_pixel + fit, VIEW_BYTES * run.n_views * run.n_bins
     if total is not None and image + sinogram > total:
         raise InputError(f"{image_key if image >= sinogram else data_key}: the run would need about "
                          f"{binary_size(image + sinogram)} of memory ({run.size}x{run.size} pixels, {run.n_frames} "
