@@ -44,7 +44,7 @@ from nct.method.fitted import FittedField, acquisition_span
 from nct.physics.conf import FBPConf
 from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
-from nct.select.misfits import heldout_misfits
+from nct.select.misfits import HeldoutMisfits, heldout_misfits
 from nct.select.race import race
 from nct.select.scene import Preparation, SceneSetup, scene_setups
 from nct.select.tournament import Verdict
@@ -76,7 +76,9 @@ class NCTResult:
     init: the starts (init/segmentation.py's route, levels), the units, in the data's, and the degrees of view angle a
     held axis leaves its object's own frame seen over (fit/problem.py; None: none held); trace: snapshots;
     background: the static image [H, W] float32 under the objects (``background=image``; None: none);
-    fitted: the winner's field, moved to the CPU, and what rebuilds and renders it (method/fitted.py).
+    fitted: the winner's field, moved to the CPU, and what rebuilds and renders it (method/fitted.py);
+    misfits: its held-out misfit beside FBP's and the noise's (select/misfits.py, computed once for the race and the
+    run's warnings; None without held-out views).
     """
 
     frames: np.ndarray
@@ -91,6 +93,7 @@ class NCTResult:
     trace: list[TracePoint] = field(default_factory=list)
     background: np.ndarray | None = None
     fitted: FittedField | None = None
+    misfits: HeldoutMisfits | None = None
 
 
 @torch.no_grad()
@@ -140,8 +143,9 @@ def reconstruct(
     choice = scene_setups(prepared, n_objects, seed)
     lap("initialisation")
     fbp = FBPConf(fbp_filter, fbp_window_deg)
+    references = functools.cache(lambda: heldout_misfits(sino, grid, 0.0, heldout, fbp))  # the data's alone: once
     verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, motion, optim, render, choice.reserve,
-                                         _worse_than_fbp(sino, grid, heldout, fbp, motion.fbp_ratio))
+                                         _worse_than_fbp(references, motion.fbp_ratio))
     lap("tournament")
     winner = verdict.winner
     prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses
@@ -152,22 +156,22 @@ def reconstruct(
     times, units, held = prob.clock(frame_times), prob.units, prob.held_losses(checked)
     trace = _trace(session, prob, fit, times, render)
     frames, sdf = _frames(fit, times, render, prob.grid)
+    heldout_loss = float(held.mean()) if len(held) else float("nan")
+    base = references() if math.isfinite(heldout_loss) else None
     return NCTResult(
         frames=(frames * units.intensity).astype(np.float32), sdf=(sdf * units.length).astype(np.float32),
         intensities=(net.intensities.detach().cpu().double() * units.intensity).numpy(),
-        heldout_loss=float(held.mean()) if len(held) else float("nan"),
+        heldout_loss=heldout_loss, misfits=None if base is None else replace(base, nct=heldout_loss),
         heldout_se=heldout_standard_error(held), stages=session.stages,
         model={"motion": winner.rung, **asdict(winner.scene), "family": model.family, **net.describe()},
         selection=_selection(verdict, model, motion), init=_init_record(chosen, winner, init.levels),
         trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
 
 
-def _worse_than_fbp(sino: Sinogram, grid: ImageGrid, heldout: HeldoutConf, fbp: FBPConf,
-                    ratio: float) -> Callable[[float], bool]:
+def _worse_than_fbp(references: Callable[[], HeldoutMisfits | None], ratio: float) -> Callable[[float], bool]:
     """Whether a fit with a given held-out misfit explains the held-out views worse than ``ratio`` x FBP, beyond the
-    noise (select/misfits.py); never where no view is held out. FBP's and the noise's misfits, the data's alone, are
-    computed once, at the first ask."""
-    references = functools.cache(lambda: heldout_misfits(sino, grid, 0.0, heldout, fbp))
+    noise (select/misfits.py); never where no view is held out (``references``: FBP's and the noise's misfits, the
+    data's alone, None then)."""
 
     def worse(misfit: float) -> bool:
         base = references()

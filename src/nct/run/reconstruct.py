@@ -53,32 +53,31 @@ def reconstruct_scan(scan: Scan, conf: NCTConf, log_dir: Path | None = None,
     log.info("FBP: %d frames of %d x %d pixels ...", len(scan.frame_times), grid.size, grid.size)
     fbp = fbp_frames(sino, grid, scan.frame_times, conf.fbp.window_deg, conf.fbp.filter).astype(np.float32, copy=False)
     lap("fbp")
-    fitted = scan.to_fit(conf.optim.fit_size) if conf.method == "nct" else scan  # the views NeuralCT fits
-    rec = Reconstruction(scan, fbp) if conf.method != "nct" else _neuralct(scan, fitted, conf, fbp, log_dir, lap)
+    rec = Reconstruction(scan, fbp) if conf.method != "nct" else _neuralct(scan, conf, fbp, log_dir, lap)
     measured = not scan.simulated
-    extra = dict(rec.record)
     rec.warnings = ((slow_rotation_warning(sino.angles, sino.times, scan.times_unit) if measured else [])
                     + determinacy_warnings(motion) + turn_warnings(turn)
                     + (geometry_warnings(geometry, sino, conf.suspect) if measured else [])
-                    + suspect_fit(conf, fitted, extra))
+                    + suspect_fit(conf, rec.record, measured))
     lap("checks")
-    record = {"times": scan.frame_times.tolist(), **extra,
+    record = {"times": scan.frame_times.tolist(), **rec.record,
               "motion_determinacy": asdict(motion) if motion is not None else None, "turn_coverage_deg": turn,
               "geometry_check": asdict(geometry) if geometry is not None else None}
     rec.record = json.loads(json.dumps(record))  # plain JSON values, as metrics.json and a saved one hold them
     return rec
 
 
-def _neuralct(scan: Scan, fitted: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
+def _neuralct(scan: Scan, conf: NCTConf, fbp: np.ndarray, log_dir: Path | None,
               lap: Callable[[str], None]) -> Reconstruction:
     """NeuralCT's frames, parts and record beside the FBP frames ``fbp`` (method/reconstruct.py), fitted to
-    ``fitted`` (``scan.to_fit``: ``scan`` itself, or its views binned) and drawn on ``scan``'s grid."""
+    ``scan.to_fit(optim.fit_size)`` (``scan`` itself, or its views binned) and drawn on ``scan``'s grid."""
     import torch
 
     from nct.fit.render import resampled
     from nct.method.reconstruct import reconstruct
     from nct.method.reload import render
 
+    fitted = scan.to_fit(conf.optim.fit_size)
     if fitted is not scan:
         log.info("NeuralCT: fitted to the views binned to %d bins on %d x %d pixels (optim.fit_size=%d), its field "
                  "drawn at %d x %d", fitted.sinogram.n_bins, fitted.grid.size, fitted.grid.size, conf.optim.fit_size,
@@ -97,10 +96,13 @@ def _neuralct(scan: Scan, fitted: Scan, conf: NCTConf, fbp: np.ndarray, log_dir:
     record = {"heldout_loss": result.heldout_loss, "heldout_se": result.heldout_se, "model": result.model,
               "selection": result.selection, "stages": result.stages,
               "intensities": [float(a) for a in result.intensities], "init": result.init}
+    if fitted is not scan:
+        record["fitted_on"] = {"n_bins": fitted.sinogram.n_bins, "size": fitted.grid.size}
+    if result.misfits is not None:  # the suspect-fit warnings' (suspect_fit)
+        record |= {"heldout_fbp_loss": result.misfits.fbp, "heldout_noise_loss": result.misfits.noise}
     if fitted is scan:
         return Reconstruction(scan, fbp, result.frames, result.sdf > 0, result.background, record=record,
                               fitted=result.fitted, trace=result.trace)
-    record["fitted_on"] = {"n_bins": fitted.sinogram.n_bins, "size": fitted.grid.size}
     frames, sdf = render(result.fitted, scan.frame_times, scan.grid.size)  # the field drawn at the image's size
 
     def drawn(images: np.ndarray) -> np.ndarray:  # [N, h, w] resampled as a drawn field's background is
@@ -111,17 +113,14 @@ def _neuralct(scan: Scan, fitted: Scan, conf: NCTConf, fbp: np.ndarray, log_dir:
     return Reconstruction(scan, fbp, frames, sdf > 0, background, record=record, fitted=result.fitted, trace=trace)
 
 
-def suspect_fit(conf: NCTConf, scan: Scan, extra: dict) -> list[str]:
-    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`) to ``scan``'s views (those it fitted), none
-    without one; adds FBP's and the noise's held-out misfits to ``extra`` (``heldout_fbp_loss``,
-    ``heldout_noise_loss``)."""
-    if "heldout_loss" not in extra:
+def suspect_fit(conf: NCTConf, record: dict, from_file: bool) -> list[str]:
+    """The truth-free warnings on NeuralCT's fit (`nct.run.suspect`) from its held-out misfits in its ``record``
+    (FBP's and the noise's, the method's: none without held-out views or without a fit); ``from_file``: the data
+    came from a file."""
+    if "heldout_fbp_loss" not in record:
         return []
     from nct.run.suspect import suspect_warnings
-    from nct.select.misfits import heldout_misfits
+    from nct.select.misfits import HeldoutMisfits
 
-    misfits = heldout_misfits(scan.sinogram, scan.grid, extra["heldout_loss"], conf.heldout, conf.fbp)
-    if misfits is None:
-        return []
-    extra |= {"heldout_fbp_loss": misfits.fbp, "heldout_noise_loss": misfits.noise}
-    return suspect_warnings(misfits, conf.suspect, not scan.simulated)
+    misfits = HeldoutMisfits(record["heldout_loss"], record["heldout_fbp_loss"], record["heldout_noise_loss"])
+    return suspect_warnings(misfits, conf.suspect, from_file)
