@@ -171,14 +171,15 @@ def circle(deg: float, rotations: float = 1.0, views: int = 720, size: int = 128
 
 
 def fit_composed(objects: list, grid: ImageGrid, optim: OptimConf, noise_i0: float | None = None,
-                 motion: SelectionConf | None = None):
+                 motion: SelectionConf | None = None, seed: int = 0):
     """A composed scene of ``objects`` (phantoms.EllipseConf), 120 views of 40 bins, 6 frames,
-    simulated analytically and reconstructed with K = len(objects): (sinogram, times, NCTResult)."""
+    simulated analytically and reconstructed with K = len(objects), the fit seeded by ``seed``:
+    (sinogram, times, NCTResult)."""
     scanner = Scanner(views_per_rotation=120, rotations=1.0, rotation_time=0.25, n_bins=40, bin_spacing=1 / 40)
     phantom = build_phantom(ComposedConf(objects=objects), scanner.rotation_time)
     times = scanner.frame_times(6)
     sino = simulate(phantom, scanner, grid, times, noise_i0, np.random.default_rng(0))
-    result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, 0, log_dir=None, logger="none",
+    result = reconstruct(sino, grid, times, MODEL, LossConf(), TRAINER, seed, log_dir=None, logger="none",
                          n_objects=len(objects), optim=optim, init=INIT, motion=motion, background=NO_BACKGROUND)
     return sino, times, result
 

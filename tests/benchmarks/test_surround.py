@@ -24,19 +24,27 @@ SCENES = {  # objects, the moving object's own level
 # the own level reads 0.915 (vessel) and 0.884 (beside), the foreground 0.989 and 0.930.
 # (A vessel of radius 0.05 at 64-128 px stays below 0.85: benchmarks/results/surround.)
 OWN_LEVEL = {"vessel": 0.88, "beside": 0.86}
+# One fit's score at this size moves with the order of its sums: the vessel's at its own level, seeds 0-3, read
+# 0.887, 0.946, 0.906, 0.923 with one thread on an Intel Xeon and 0.899, 0.947, 0.906, 0.922 with two (seed 0 had
+# read 0.915 on an AMD EPYC); beside's 0.881-0.900. So each score is the median of three seeds' fits.
+SEEDS = (0, 1, 2)
 
 
 @pytest.mark.parametrize("name", SCENES)
 def test_moving_object_in_static_surroundings(name):
     objects, own = SCENES[name]
-    sino, times, result = fit_composed(objects, GRID, LONGER)
+    fits = [fit_composed(objects, GRID, LONGER, seed=seed) for seed in SEEDS]
+    sino, times = fits[0][:2]
     fbp = fbp_frames(sino, GRID, times)
     truth = sino.truth.frames
 
     def score(frames: np.ndarray, level: float) -> float:
         return float(np.median(dice(frames >= level, truth >= level)))
 
-    own_nct = score(result.frames, own)
+    def nct(level: float) -> float:
+        return float(np.median([score(result.frames, level) for *_, result in fits]))
+
+    own_nct = nct(own)
     assert own_nct > OWN_LEVEL[name], own_nct
     assert own_nct > score(fbp, own) + 0.05, (own_nct, score(fbp, own))
-    assert score(result.frames, sino.truth.level) >= score(fbp, sino.truth.level) - 0.01
+    assert nct(sino.truth.level) >= score(fbp, sino.truth.level) - 0.01
