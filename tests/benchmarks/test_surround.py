@@ -19,9 +19,9 @@ SCENES = {  # objects, the moving object's own level
     "beside": ([orbit(0.12, 0.2, 100.0, 1.0), still(-0.22, -0.2, 0.12, 0.12, 0.45)], 0.5),
 }
 # Measured (median over frames, 200-step fit; FBP levels, init.levels=fbp): at its own level NCT 0.922 / FBP 0.842
-# (vessel), 0.901 / 0.786 (beside); the foreground 0.988 / 0.981 and 0.938 / 0.818 (before the coarse first pass: 0.913 and 0.892 at
-# the own level). The bars sit 0.03-0.04 below NCT's own-level scores. With the judged levels (the default)
-# the own level reads 0.915 (vessel) and 0.884 (beside), the foreground 0.989 and 0.930.
+# (vessel), 0.901 / 0.786 (beside); the foreground 0.988 / 0.981 and 0.938 / 0.818 (before the coarse first pass:
+# 0.913 and 0.892 at the own level). The bars sit 0.03-0.04 below NCT's own-level scores. With the judged levels (the
+# default) the own level reads 0.915 (vessel) and 0.884 (beside), the foreground 0.989 and 0.930.
 # (A vessel of radius 0.05 at 64-128 px stays below 0.85: benchmarks/results/surround.)
 OWN_LEVEL = {"vessel": 0.88, "beside": 0.86}
 # One fit's score at this size moves with the order of its sums: the vessel's at its own level, seeds 0-3, read
