@@ -23,6 +23,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.linalg import cholesky, solve_triangular
 from scipy.optimize import minimize, minimize_scalar
 from threadpoolctl import threadpool_limits
 
@@ -216,8 +217,8 @@ class _Evidence:
         scale = math.exp(log_scale)
         r = math.exp(log_ratio) * np.sqrt(math.sqrt(2 * math.pi) * scale * self.spacing) * np.exp(
             -((math.pi * scale * self.frequencies) ** 2))
-        chol = np.linalg.cholesky(self.gram * r[:, None] * r[None, :] + np.eye(len(r)))
-        z = np.linalg.solve(chol, r * self.moment)
+        chol = cholesky(self.gram * r[:, None] * r[None, :] + np.eye(len(r)), lower=True, check_finite=False)
+        z = solve_triangular(chol, r * self.moment, lower=True, check_finite=False)  # O(N^2): a general solve here took half the time
         return r, chol, z, max(self.energy - float(z @ z), 1e-300) / self.n
 
     def _negative(self, log_scale: float, log_ratio: float) -> float:
@@ -245,7 +246,7 @@ class _Evidence:
     def posterior(self, log_scale: float, log_ratio: float) -> tuple[np.ndarray, float]:
         """Posterior mean of the coefficients [N] and the noise sd."""
         r, chol, z, variance = self._factor(log_scale, log_ratio)
-        return r * np.linalg.solve(chol.T, z), math.sqrt(variance)
+        return r * solve_triangular(chol, z, trans="T", lower=True, check_finite=False), math.sqrt(variance)
 
 
 @dataclass(frozen=True)
