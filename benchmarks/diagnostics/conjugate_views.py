@@ -32,7 +32,8 @@ def consistency(sino: Sinogram) -> tuple[float, float]:
     turn."""
     sino = sino if sino.geometry.is_parallel else to_parallel(sino)
     values = np.asarray(sino.values, dtype=np.float64)
-    turn = np.abs(np.asarray(sino.angles, dtype=np.float64) - float(sino.angles[0]))  # rad from the first view
+    angles = np.unwrap(np.asarray(sino.angles, dtype=np.float64))  # a file's angles may wrap at a turn
+    turn = np.abs(angles - angles[0])  # rad from the first view
     target = turn + np.pi
     has = np.flatnonzero(target <= turn[-1])
     if len(has) < 2:

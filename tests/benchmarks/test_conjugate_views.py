@@ -27,3 +27,9 @@ def test_under_half_a_turn_there_are_no_conjugates():
     short = replace(sino, values=sino.values[:80], angles=sino.angles[:80], times=sino.times[:80])
     assert all(math.isnan(x) for x in conjugate_views.consistency(short))
     assert np.isfinite(conjugate_views.consistency(sino)).all()
+
+
+def test_angles_wrapped_at_a_turn_read_as_the_turning_gantry():
+    sino, _, _ = circle(100.0, rotations=1.5, views=120, size=48)
+    wrapped = replace(sino, angles=np.mod(np.asarray(sino.angles), 2 * np.pi))
+    assert conjugate_views.consistency(wrapped) == pytest.approx(conjugate_views.consistency(sino))
