@@ -1,6 +1,7 @@
 """Would the tournament's milestones have stopped the eventual winner? Replays runs whose fits all ran to
 the end (``--override motion.first_budget=1``: no milestones) through the tournament's schedule with
-``--margin`` (``motion.milestone_margin``) and ``--scene-budget`` (``motion.scene_budget``) and prints, per
+``--first-budget`` (``motion.first_budget``), ``--margin`` (``motion.milestone_margin``) and ``--scene-budget``
+(``motion.scene_budget``) and prints, per
 run, each fit it would stop (where, how far behind what it needed, its final held-out misfit against the
 best), whether the winner changes and, where the run's folder holds the scene's truth (a generalisation
 benchmark's scenes.csv), whether the winner's K is the truth's.
@@ -10,7 +11,8 @@ milestones would have, and where it chooses the same winner its reconstruction i
 
     python benchmarks/generalisation.py --size 128 --subset --jobs 2 --threads 1 --out outputs/noprune \
         --override motion.first_budget=1
-    python benchmarks/diagnostics/milestones.py outputs/noprune --margin 0 0.05 --scene-budget 0.25 0.5
+    python benchmarks/diagnostics/milestones.py outputs/noprune --margin 0 0.05 --scene-budget 0.25 0.5 \
+        --first-budget 0.1 0.25
 """
 
 from __future__ import annotations
@@ -26,8 +28,6 @@ from nct.select.candidates import Candidate, SceneModel
 from nct.select.conf import SelectionConf
 from nct.select.tournament import Tournament
 
-FIRST_BUDGET = 0.25  # the schedule replayed: the default motion.first_budget
-
 
 def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, float]], int, float]]] | None:
     """A run's fit steps, held-out check interval and fits in the order they ran: (candidate, held-out
@@ -37,7 +37,8 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
         return None
     table, stages = metrics["selection"]["table"], metrics["stages"]
     if any("n_objects" not in row for row in table):
-        raise ValueError(f"{run} was written by an older nct (its selection table names no candidate's model): rerun it")
+        raise ValueError(f"{run} was written by an older nct (its selection table names no candidate's model): "
+                         "rerun it")
     named = len({(row["n_objects"], row["background"]) for row in table}) > 1
     out = []
     for row in table:
@@ -51,10 +52,11 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
     return steps, every, out
 
 
-def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float) -> tuple[Candidate, int, list[str]]:
-    """The winner, the steps fitted and a line per stopped fit, were the milestones at ``margin`` and scene
-    models compared from ``scene_budget`` on."""
-    tournament = Tournament(steps, every, SelectionConf(rungs=list(RUNGS), first_budget=FIRST_BUDGET,
+def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float,
+           first_budget: float) -> tuple[Candidate, int, list[str]]:
+    """The winner, the steps fitted and a line per stopped fit, were the first milestone at ``first_budget`` of the
+    steps, the milestones at ``margin`` and scene models compared from ``scene_budget`` on."""
+    tournament = Tournament(steps, every, SelectionConf(rungs=list(RUNGS), first_budget=first_budget,
                                                        milestone_margin=margin, scene_budget=scene_budget))
     best = min((m for *_, m in ran if math.isfinite(m)), default=math.inf)
     used, lines = 0, []
@@ -72,6 +74,11 @@ def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float
     return tournament.verdict().winner, used, lines
 
 
+def label(setting: tuple[float, float, float]) -> str:
+    """A replayed schedule's name: its margin, scene budget and first budget."""
+    return f"margin {setting[0]:g}, scene budget {setting[1]:g}, first budget {setting[2]:g}"
+
+
 def truth_models(root: Path) -> dict[str, SceneModel]:
     """Each scene's model (its objects, no background) from a generalisation folder's scenes.csv; {} without."""
     table = root / "scenes.csv"
@@ -87,9 +94,11 @@ def main() -> None:
     parser.add_argument("--margin", type=float, nargs="+", default=[0.0, 0.05], help="milestone margins to replay")
     parser.add_argument("--scene-budget", type=float, nargs="+", default=[0.5],
                         help="shares of the steps from which scene models are compared to replay")
+    parser.add_argument("--first-budget", type=float, nargs="+", default=[0.25],
+                        help="shares of the steps at which the first milestone falls to replay")
     args = parser.parse_args()
-    if min(args.margin) < 0 or not all(0 <= b <= 1 for b in args.scene_budget):
-        parser.exit(2, "milestones: error: --margin must be >= 0 and --scene-budget in [0, 1]\n")
+    if min(args.margin) < 0 or not all(0 <= b <= 1 for b in args.scene_budget + args.first_budget):
+        parser.exit(2, "milestones: error: --margin must be >= 0, --scene-budget and --first-budget in [0, 1]\n")
     try:
         runs = {p.parent: fits(p.parent) for p in sorted(args.root.rglob("metrics.json"))}
     except ValueError as err:
@@ -98,13 +107,13 @@ def main() -> None:
     if not runs:
         parser.exit(2, f"milestones: error: no run with a tournament (metrics.json -> selection) below {args.root}\n")
     truth = truth_models(args.root)
-    settings = [(m, b) for m in args.margin for b in args.scene_budget]
+    settings = [(m, b, f) for m in args.margin for b in args.scene_budget for f in args.first_budget]
     totals = {key: [0, 0, 0] for key in [None, *settings]}  # steps, the winner unchanged, the truth's model chosen
     for run, (steps, every, ran) in runs.items():
         if any(done < steps for _, _, done, m in ran if math.isfinite(m)):
             parser.exit(2, f"milestones: error: {run} stopped fits early: rerun it with motion.first_budget=1\n")
         model = truth.get(run.parent.name)
-        everyone = replay(steps, 0, ran, 0.0, 0.0)
+        everyone = replay(steps, 0, ran, 0.0, 0.0, 1.0)
         print(f"{run.relative_to(args.root)}: {len(ran)} fits, all finished: {everyone[0].name} ({everyone[1]} steps)"
               + (f"; the truth's model {model.label}" if model else ""))
         for key in [None, *settings]:
@@ -113,10 +122,10 @@ def main() -> None:
                            totals[key][2] + (winner.scene == model)]
             if key is not None:
                 same = "the same winner" if winner == everyone[0] else f"{winner.name} wins instead"
-                print(f" margin {key[0]:g}, scene budget {key[1]:g}: {same}, {used} steps", *lines, sep="\n")
+                print(f" {label(key)}: {same}, {used} steps", *lines, sep="\n")
     print(f"\n{len(runs)} runs" + (", the truth's model known" if truth else ""))
     for key, (used, same, right) in totals.items():
-        name = "no milestones" if key is None else f"margin {key[0]:g}, scene budget {key[1]:g}"
+        name = "no milestones" if key is None else label(key)
         print(f" {name}: {used} steps, the winner of no milestones on {same}"
               + (f", the truth's model on {right}" if truth else ""))
 
