@@ -53,7 +53,7 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
 
 
 def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float,
-           first_budget: float) -> tuple[Candidate, int, list[str]]:
+           first_budget: float = 0.25) -> tuple[Candidate, int, list[str]]:
     """The winner, the steps fitted and a line per stopped fit, were the first milestone at ``first_budget`` of the
     steps, the milestones at ``margin`` and scene models compared from ``scene_budget`` on."""
     tournament = Tournament(steps, every, SelectionConf(rungs=list(RUNGS), first_budget=first_budget,

@@ -287,6 +287,25 @@ def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
     assert (winner.name, used, lines) == ("free_start1", 2000, [])
 
 
+def test_milestones_replays_the_first_milestone_where_first_budget_puts_it(tmp_path):
+    """A start far behind stops at the first milestone: step 300 at today's first budget (0.25 of 1000 steps, on the
+    checks every 100), step 100 at 0.1; without milestones both fits run to the end."""
+    milestones = load("diagnostics/milestones")
+    steps = list(range(100, 1001, 100))
+    ahead = [0.01 * 1000 / s for s in steps]
+    model = {"n_objects": 1, "background": "none", "rung": "free", "f_max": None, "turning": None, "restart": False}
+    table, stages = [], {}
+    for name, start, history in [("free", 0, ahead), ("free_start1", 1, [2 * x for x in ahead])]:
+        table.append({"candidate": name, **model, "start": start, "steps": 1000, "heldout_misfit": history[-1]})
+        stages[f"{name}_fit"] = {"planned_steps": 1000, "heldout_history": [list(p) for p in zip(steps, history)]}
+    (tmp_path / "metrics.json").write_text(json.dumps({"selection": {"table": table}, "stages": stages}))
+    n_steps, every, ran = milestones.fits(tmp_path)
+    assert milestones.replay(n_steps, 0, ran, 0.05, 0.5, 1.0)[1] == 2000
+    for first, stop in [(0.25, 300), (0.1, 100)]:
+        winner, used, lines = milestones.replay(n_steps, every, ran, 0.05, 0.5, first)
+        assert winner.name == "free" and used == 1000 + stop and f"stopped at step {stop}" in lines[0]
+
+
 def test_milestones_replays_the_scene_budget_against_the_truth(tmp_path, capsys, monkeypatch):
     """Three objects 50 % behind two at step 300 that end 30 % ahead: stopped where scene models are compared
     from the first milestone (K = 2 wins, not the truth's), racing on from half the steps (K = 3, the truth's)."""
@@ -308,10 +327,12 @@ def test_milestones_replays_the_scene_budget_against_the_truth(tmp_path, capsys,
     milestones.main()
     out = capsys.readouterr().out
     assert "all finished: k3_none_free (2000 steps); the truth's model k3_none" in out
-    assert "scene budget 0.25: k2_none_free wins instead, 1300 steps" in out
-    assert "scene budget 0.5: the same winner, 2000 steps" in out
-    assert "margin 0.05, scene budget 0.25: 1300 steps, the winner of no milestones on 0, the truth's model on 0" in out
-    assert "margin 0.05, scene budget 0.5: 2000 steps, the winner of no milestones on 1, the truth's model on 1" in out
+    assert "scene budget 0.25, first budget 0.25: k2_none_free wins instead, 1300 steps" in out
+    assert "scene budget 0.5, first budget 0.25: the same winner, 2000 steps" in out
+    assert ("margin 0.05, scene budget 0.25, first budget 0.25: 1300 steps, the winner of no milestones on 0, the "
+            "truth's model on 0") in out
+    assert ("margin 0.05, scene budget 0.5, first budget 0.25: 2000 steps, the winner of no milestones on 1, the "
+            "truth's model on 1") in out
 
 
 def test_milestones_refuses_a_table_without_the_candidates_models(tmp_path, capsys, monkeypatch):
