@@ -1,10 +1,9 @@
 """Would the tournament's milestones have stopped the eventual winner? Replays runs whose fits all ran to
 the end (``--override motion.first_budget=1``: no milestones) through the tournament's schedule with
 ``--first-budget`` (``motion.first_budget``), ``--margin`` (``motion.milestone_margin``) and ``--scene-budget``
-(``motion.scene_budget``) and prints, per
-run, each fit it would stop (where, how far behind what it needed, its final held-out misfit against the
-best), whether the winner changes and, where the run's folder holds the scene's truth (a generalisation
-benchmark's scenes.csv), whether the winner's K is the truth's.
+(``motion.scene_budget``) and prints, per run, each fit it would stop (where, how far behind what it needed, its
+final held-out misfit against the best), whether the winner changes and, where the run's folder holds the scene's
+truth (a generalisation benchmark's scenes.csv), whether the winner's K is the truth's.
 
 Fits are independent (each candidate's own random streams), so a replayed run chooses as the run with
 milestones would have, and where it chooses the same winner its reconstruction is the same.
@@ -53,7 +52,7 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
 
 
 def replay(steps: int, every: int, ran: list, margin: float, scene_budget: float,
-           first_budget: float = 0.25) -> tuple[Candidate, int, list[str]]:
+           first_budget: float = SelectionConf.first_budget) -> tuple[Candidate, int, list[str]]:
     """The winner, the steps fitted and a line per stopped fit, were the first milestone at ``first_budget`` of the
     steps, the milestones at ``margin`` and scene models compared from ``scene_budget`` on."""
     tournament = Tournament(steps, every, SelectionConf(rungs=list(RUNGS), first_budget=first_budget,
@@ -94,7 +93,7 @@ def main() -> None:
     parser.add_argument("--margin", type=float, nargs="+", default=[0.0, 0.05], help="milestone margins to replay")
     parser.add_argument("--scene-budget", type=float, nargs="+", default=[0.5],
                         help="shares of the steps from which scene models are compared to replay")
-    parser.add_argument("--first-budget", type=float, nargs="+", default=[0.25],
+    parser.add_argument("--first-budget", type=float, nargs="+", default=[SelectionConf.first_budget],
                         help="shares of the steps at which the first milestone falls to replay")
     args = parser.parse_args()
     if min(args.margin) < 0 or not all(0 <= b <= 1 for b in args.scene_budget + args.first_budget):
