@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from nct.run.tables import markdown_table
+
 BEHIND = 0.05  # a stop that leaves the held-out misfit this share above its last is a stop too early
 
 
@@ -22,7 +24,10 @@ def curves(folders: list[Path]) -> dict[str, tuple[list[int], np.ndarray]]:
     {name: (steps, ratios)}."""
     found = {}
     for folder, metrics in sorted((folder, p) for folder in folders for p in folder.rglob("metrics.json")):
-        stages = json.loads(metrics.read_text()).get("stages", {})
+        try:
+            stages = json.loads(metrics.read_text()).get("stages", {})
+        except ValueError as err:
+            raise ValueError(f"{metrics} is not a run's metrics.json ({err})") from None
         for name, stage in stages.items():
             history = stage.get("heldout_history") if isinstance(stage, dict) else None
             if not history or not name.endswith("_fit") or stage.get("steps") != stage.get("planned_steps"):
@@ -37,15 +42,14 @@ def table(found: dict[str, tuple[list[int], np.ndarray]]) -> str:
     """The rows and the summary as markdown (fits whose checks fall on the first fit's steps)."""
     steps = next(iter(found.values()))[0]
     alike = {k: r for k, (s, r) in found.items() if s == steps}
-    head = "| fit | " + " | ".join(str(s) for s in steps) + " |\n|---|" + "---|" * len(steps) + "\n"
-    rows = "".join(f"| {k} | " + " | ".join(f"{x:.3f}" for x in r) + " |\n" for k, r in alike.items())
+    rows = markdown_table(["fit", *map(str, steps)], [[k, *(f"{x:.3f}" for x in r)] for k, r in alike.items()])
     ratios = np.stack(list(alike.values()))
-    summary = (f"\n{len(alike)} fits whose checks fall on steps {steps[0]}..{steps[-1]} "
-               f"({len(found) - len(alike)} others left out).\n\n"
-               f"| check | median | min | max | fits > {1 + BEHIND:g} |\n|---|---|---|---|---|\n")
-    summary += "".join(f"| {s} | {np.median(c):.3f} | {c.min():.3f} | {c.max():.3f} | {(c > 1 + BEHIND).sum()} |\n"
-                       for s, c in zip(steps, ratios.T))
-    return head + rows + summary
+    behind = (ratios > 1 + BEHIND).sum(axis=0)
+    summary = markdown_table(["check", "median", "min", "max", f"fits > {1 + BEHIND:g}"],
+                             [[s, f"{np.median(c):.3f}", f"{c.min():.3f}", f"{c.max():.3f}", int(n)]
+                              for s, c, n in zip(steps, ratios.T, behind)])
+    return (f"{rows}\n\n{len(alike)} fits whose checks fall on steps {steps[0]}..{steps[-1]} "
+            f"({len(found) - len(alike)} others left out).\n\n{summary}")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -53,7 +57,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("folders", type=Path, nargs="+", help="folders holding runs (searched for metrics.json)")
     parser.add_argument("--out", type=Path, help="write the table here too (markdown)")
     args = parser.parse_args(argv)
-    found = curves(args.folders)
+    try:
+        found = curves(args.folders)
+    except (OSError, ValueError) as err:
+        raise SystemExit(f"heldout_curves: error: {err}") from None
     if not found:
         raise SystemExit("heldout_curves: no finished fit with a held-out history under " +
                          ", ".join(map(str, args.folders)))
