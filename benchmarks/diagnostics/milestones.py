@@ -30,7 +30,8 @@ from nct.select.tournament import Tournament
 
 def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, float]], int, float]]] | None:
     """A run's fit steps, held-out check interval and fits in the order they ran: (candidate, held-out
-    history, steps, final misfit); None for a run without a tournament (no metrics.json -> selection)."""
+    history, steps, final misfit); None for a run without a tournament (no metrics.json -> selection). A rung
+    the run did not fit (select/stillness.py) is left out."""
     metrics = json.loads((run / "metrics.json").read_text())
     if "selection" not in metrics:
         return None
@@ -38,6 +39,7 @@ def fits(run: Path) -> tuple[int, int, list[tuple[Candidate, list[tuple[int, flo
     if any("n_objects" not in row for row in table):
         raise ValueError(f"{run} was written by an older nct (its selection table names no candidate's model): "
                          "rerun it")
+    table = [row for row in table if f"{row['candidate']}_fit" in stages]  # a rung a still scan left out: no fit
     named = len({(row["n_objects"], row["background"]) for row in table}) > 1
     out = []
     for row in table:

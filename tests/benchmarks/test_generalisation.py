@@ -277,9 +277,11 @@ def test_milestones_replays_a_near_tie_that_the_margin_keeps(tmp_path):
                                         "heldout_misfit": 0.9}]},
                "stages": {"free_fit": {"planned_steps": 1000, "heldout_history": ahead},
                           "free_start1_fit": {"planned_steps": 1000, "heldout_history": late}}}
+    metrics["selection"]["table"].append({"candidate": "rigid", **model, "rung": "rigid", "start": 0, "steps": 0,
+                                          "heldout_misfit": float("nan"), "verdict": "not fitted: ..."})
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     steps, every, ran = milestones.fits(tmp_path)
-    assert (steps, every, len(ran)) == (1000, 100, 2)
+    assert (steps, every, len(ran)) == (1000, 100, 2)  # the rung a still scan left out (select/stillness.py) is no fit
     assert milestones.replay(steps, 0, ran, 0.0, 0.5)[0].name == "free_start1"
     winner, used, lines = milestones.replay(steps, every, ran, 0.0, 0.5)
     assert (winner.name, used) == ("free", 1300) and "free_start1 stopped at step 300, +3.0% behind" in lines[0]

@@ -19,8 +19,9 @@ from tests.conftest import TINY, compose_config
 QUIET = ["logger=csv", "threads=1", "export.gif=false", "export.png=false", "export.tiff=false"]
 VARIANTS = {  # each in units of its own (fit/units.py): the export maps back like the run
     "refine": ["optim.refine=true", "optim.refine_init_steps=3", "optim.refine_fit_steps=3", "image.extent=1.5"],
-    # a still object: the static rung wins though fitted first
-    "auto": ["motion.rungs=[static,free]", "phantom.displacement_deg=0", "phantom.intensity=3.0"],
+    # a still object: the static rung wins though fitted first (the free rung fitted too: still_ratio 0)
+    "auto": ["motion.rungs=[static,free]", "motion.still_ratio=0", "phantom.displacement_deg=0",
+             "phantom.intensity=3.0"],
     # two rotations (of half the time: the same 0.25 s)
     "rotations": ["scanner.rotations=2", "scanner.rotation_time=0.125", "image.extent=1.5"],
     # a static background image under the object, rendered beside it at any size

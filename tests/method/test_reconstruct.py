@@ -255,8 +255,24 @@ def test_the_ladder_chooses_static_for_a_still_scene_and_free_for_a_moving_one(a
         table["static"]["steps"] < OPTIM.fit_steps
     alone = run(sino, times)
     assert moving.stages["free_fit"]["misfit_end"] == alone.stages["free_fit"]["misfit_end"]
-    chosen = run(replace(sino, values=_still_views()), times, motion=ladder)
+    still = replace(sino, values=_still_views())
+    chosen = run(still, times, motion=replace(ladder, still_ratio=0.0))  # both fitted: the held-out views choose
     assert chosen.selection["winner"] == "static" and chosen.model["motion"] == "static"
+    assert "free_fit" in chosen.stages
+
+
+def test_a_still_scan_fits_the_static_rung_alone_and_lists_the_rest(acquisition):
+    """Where the views' conjugates agree (select/stillness.py) the moving rungs are not fitted; selection.csv says
+    so; the static fit is the one the whole ladder runs."""
+    sino, times = acquisition
+    still = replace(sino, values=_still_views())
+    ladder = SelectionConf(rungs=["static", "free"])
+    result = run(still, times, motion=ladder)
+    table = {r["candidate"]: r for r in result.selection["table"]}
+    assert result.selection["winner"] == "static" and "free_fit" not in result.stages
+    assert table["free"]["steps"] == 0 and table["free"]["verdict"].startswith("not fitted: the views' conjugate")
+    whole = run(still, times, motion=replace(ladder, still_ratio=0.0))
+    assert result.stages["static_fit"]["misfit_end"] == whole.stages["static_fit"]["misfit_end"]
 
 
 def _still_views() -> np.ndarray:

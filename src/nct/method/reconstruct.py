@@ -47,6 +47,7 @@ from nct.select.conf import SelectionConf
 from nct.select.misfits import HeldoutMisfits, heldout_misfits
 from nct.select.race import race
 from nct.select.scene import Preparation, SceneSetup, scene_setups
+from nct.select.stillness import Ladder, ladder
 from nct.select.tournament import Verdict
 
 log = logging.getLogger(__name__)
@@ -144,8 +145,9 @@ def reconstruct(
     lap("initialisation")
     fbp = FBPConf(fbp_filter, fbp_window_deg)
     references = functools.cache(lambda: heldout_misfits(sino, grid, 0.0, heldout, fbp))  # the data's alone: once
-    verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, motion, optim, render, choice.reserve,
-                                         _worse_than_fbp(references, motion.fbp_ratio))
+    rungs = ladder(sino, motion)
+    verdict, fitted, nets, chosen = race(choice.setups, session, model, seed, rungs.motion, optim, render,
+                                         choice.reserve, _worse_than_fbp(references, motion.fbp_ratio))
     lap("tournament")
     winner = verdict.winner
     prob, net, fit, checked = chosen.prob, nets[winner], fitted[winner].fit, fitted[winner].losses
@@ -164,7 +166,7 @@ def reconstruct(
         heldout_loss=heldout_loss, misfits=None if base is None else replace(base, nct=heldout_loss),
         heldout_se=heldout_standard_error(held), stages=session.stages,
         model={"motion": winner.rung, **asdict(winner.scene), "family": model.family, **net.describe()},
-        selection=_selection(verdict, model, motion), init=_init_record(chosen, winner, init.levels),
+        selection=_selection(verdict, model, rungs), init=_init_record(chosen, winner, init.levels),
         trace=trace, background=_background(net, units), fitted=_fitted(prob, fit, winner, model, sino, grid, render))
 
 
@@ -188,11 +190,12 @@ def _check(n_objects: int | None, logger: str) -> None:
         raise ValueError(f"logger must be one of {LOGGERS}, got {logger!r}")
 
 
-def _selection(verdict: Verdict, model: ModelConf, motion: SelectionConf) -> dict:
-    """What metrics.json records of the tournament: the winner, why, and every candidate's row."""
-    winner = verdict.winner
+def _selection(verdict: Verdict, model: ModelConf, rungs: Ladder) -> dict:
+    """What metrics.json records of the tournament: the winner, why, and every candidate's row (a rung the
+    ``rungs`` left out too)."""
+    winner, motion = verdict.winner, rungs.motion
     return {"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
-            "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows],
+            "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows + rungs.rows(winner.scene)],
             "tolerance": motion.tolerance, "first_budget": motion.first_budget}
 
 

@@ -39,6 +39,10 @@ class SelectionConf:
         judge priced wrong on four of the 100 generalisation scenes (benchmarks/results/generalisation/reserve). A
         race costs time, never the result (the held-out views still choose), so it starts below the limit at which
         the run warns (suspect.fbp_ratio); 0: every winner races the next model, .inf: none does.
+    still_ratio: a ladder of the static rung and moving ones fits static alone where the views' conjugate ratio
+        (moments/conjugates.py: conjugate views against their noise) is at most this: of the benchmarks' 118 scene
+        files no moving one reads under 1.03, 26 of 28 still ones under 1.0 (benchmarks/results/speed/conjugate_views);
+        the still experiment with motion=auto then costs a third of its time (select/stillness.py). 0: never.
     """
 
     rungs: list[str] = field(default_factory=lambda: ["free"])
@@ -50,6 +54,7 @@ class SelectionConf:
     scene_tolerance: float = 0.1
     scene_budget: float = 0.5
     fbp_ratio: float = 1.0
+    still_ratio: float = 1.0
 
     def __post_init__(self) -> None:
         require(len(self.rungs) >= 1 and all(r in RUNGS for r in self.rungs), "motion.rungs",
@@ -59,6 +64,7 @@ class SelectionConf:
         require(self.tolerance >= 0, "motion.tolerance", ">= 0", self.tolerance)
         require(self.scene_tolerance >= 0, "motion.scene_tolerance", ">= 0", self.scene_tolerance)
         require(0 <= self.scene_budget <= 1, "motion.scene_budget", "in [0, 1]", self.scene_budget)
+        require(self.still_ratio >= 0, "motion.still_ratio", ">= 0", self.still_ratio)
         require(self.fbp_ratio >= 0, "motion.fbp_ratio", ">= 0", self.fbp_ratio)
         require(self.milestone_margin >= 0, "motion.milestone_margin", ">= 0", self.milestone_margin)
         require(self.band_f_max is None or self.band_f_max > 0, "motion.band_f_max", "> 0 or null", self.band_f_max)
