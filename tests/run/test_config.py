@@ -104,6 +104,7 @@ def test_composition_errors_name_the_key(override, error, words):
         ("motion.tolerance=-1", "motion.tolerance"),
         ("motion.milestone_margin=-0.1", "motion.milestone_margin must be >= 0"),
         ("motion.fbp_ratio=-1", "motion.fbp_ratio must be >= 0"),
+        ("motion.still_ratio=-1", "motion.still_ratio must be >= 0"),
         ("motion=auto heldout.every=1", "heldout.every must be >= 2"),
         ("optim.lr=0", "optim.lr must be > 0"),
         ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),

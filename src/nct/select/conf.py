@@ -42,7 +42,7 @@ class SelectionConf:
     still_ratio: a ladder of the static rung and moving ones fits static alone where the views' conjugate ratio
         (moments/conjugates.py: conjugate views against their noise) is at most this: of the benchmarks' 118 scene
         files no moving one reads under 1.03, 26 of 28 still ones under 1.0 (benchmarks/results/speed/conjugate_views);
-        the still experiment with motion=auto then costs a third of its time (select/stillness.py). 0: never.
+        the still experiment with motion=auto then takes a quarter of its time (select/stillness.py). 0: never.
     """
 
     rungs: list[str] = field(default_factory=lambda: ["free"])
