@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import pytest
 
-from nct.select.candidates import SceneModel
+from nct.select.candidates import Candidate, SceneModel
 from nct.select.conf import SelectionConf
 from nct.select.stillness import ladder
 from tests.conftest import circle
@@ -20,8 +20,10 @@ def test_a_still_scan_fits_the_static_rung_alone_and_says_why():
     sino, _, _ = circle(0.0, views=180, size=48)
     rungs = ladder(sino, AUTO)
     assert rungs.motion.rungs == ["static"] and rungs.left_out == ["rigid", "affine", "free"]
-    rows = rungs.rows(SceneModel(2))
-    assert [r.rung for r in rows] == ["rigid", "affine", "free"]
+    rows = rungs.rows(Candidate(SceneModel(2), "static", start=1))
+    assert [r.rung for r in rows] == [r.candidate for r in rows] == ["rigid", "affine", "free"]
+    named = rungs.rows(Candidate(SceneModel(3, "none"), "static", scene_named=True))
+    assert [r.candidate for r in named] == ["k3_none_rigid", "k3_none_affine", "k3_none_free"]
     assert all(r.steps == 0 and math.isnan(r.heldout_misfit) and r.n_objects == 2 for r in rows)
     assert all("not fitted: the views' conjugate pairs agree" in r.verdict for r in rows)
     assert replace(rungs.motion, rungs=AUTO.rungs) == AUTO  # only the rungs change
@@ -34,7 +36,7 @@ def test_the_ladder_stays_whole_where_things_move_or_it_holds_no_choice(deg, mot
     """A moving disc, the rule turned off, a ladder without the static rung, one rung: nothing is left out."""
     sino, _, _ = circle(deg, views=180, size=48)
     rungs = ladder(sino, motion)
-    assert rungs.motion == motion and rungs.left_out == [] and rungs.rows(SceneModel(1)) == []
+    assert rungs.motion == motion and rungs.left_out == [] and rungs.rows(Candidate(SceneModel(1), "free")) == []
 
 
 def test_under_half_a_turn_the_ladder_stays_whole():

@@ -196,7 +196,7 @@ def _selection(verdict: Verdict, model: ModelConf, rungs: Ladder) -> dict:
     ``rungs`` left out too)."""
     winner, motion = verdict.winner, rungs.motion
     return {"winner": winner.name, "rung": winner.rung, "f_max": winner.f_max or model.f_max,
-            "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows + rungs.rows(winner.scene)],
+            "reason": verdict.reason, "table": [asdict(row) for row in verdict.rows + rungs.rows(winner)],
             "tolerance": motion.tolerance, "first_budget": motion.first_budget}
 
 

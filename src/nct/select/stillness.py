@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 
 from nct.acquisition.sinogram import Sinogram
 from nct.moments.conjugates import conjugate_ratio
-from nct.select.candidates import SceneModel
+from nct.select.candidates import Candidate
 from nct.select.conf import SelectionConf
 from nct.select.tournament import Row
 
@@ -25,10 +25,12 @@ class Ladder:
     left_out: list[str] = field(default_factory=list)
     why: str = ""
 
-    def rows(self, scene: SceneModel) -> list[Row]:
-        """selection.csv's line for each rung left out, under the chosen ``scene`` model."""
-        return [Row(rung, scene.n_objects, scene.background, rung, None, 0, None, False, 0, math.nan,
-                    f"not fitted: {self.why}") for rung in self.left_out]
+    def rows(self, winner: Candidate) -> list[Row]:
+        """selection.csv's line for each rung left out, as the ``winner``'s scene model would have fitted it from its
+        best start (named as the winner's table names its candidates)."""
+        scene = winner.scene
+        return [Row(Candidate(scene, rung, scene_named=winner.scene_named).name, scene.n_objects, scene.background,
+                    rung, None, 0, None, False, 0, math.nan, f"not fitted: {self.why}") for rung in self.left_out]
 
 
 def ladder(sino: Sinogram, motion: SelectionConf) -> Ladder:
