@@ -70,15 +70,15 @@ class Config:
 
 def configs(defaults: DictConfig, quick: bool, paper_steps: int) -> list[Config]:
     """FBP, then NeuralCT of increasing budget (steps x the defaults, field size), the explicit grid
-    family (half and full steps), each simpler motion rung alone (the default is the free rung) and the
-    motion ladder chosen from the data (grid and default family), then the paper's model
+    family (half and full steps), each motion rung alone (the default: the static rung or the free one, as the views say) and
+    the motion ladder chosen from the data (grid and default family), then the paper's model
     (with refinement, as in the paper) at a tenth of ``paper_steps`` and at ``paper_steps`` steps per
     stage, first seed only: its time, extrapolated to the paper's steps, is the point."""
     factors = (0.1, 0.25) if quick else (0.25, 0.5, 1.0, 2.0)
     ladder = [Config("nct-default" if f == 1 else f"nct-x{f:g}", "nct", () if f == 1 else scaled_steps(defaults, f))
               for f in factors]
     small = [] if quick else [Config("nct-small", "nct", ("model=siren_small",))]
-    rungs = [] if quick else [Config(f"nct-{r}", "nct", (f"motion={r}",)) for r in ("static", "rigid", "affine")]
+    rungs = [] if quick else [Config(f"nct-{r}", "nct", (f"motion={r}",)) for r in ("static", "rigid", "affine", "free")]
     grids = [Config("grid-x0.5", "nct", ("model=grid", *scaled_steps(defaults, 0.5))),
              Config("grid", "nct", ("model=grid",)), Config("grid-auto", "nct", ("model=grid", "motion=auto")),
              Config("nct-auto", "nct", ("motion=auto",))]

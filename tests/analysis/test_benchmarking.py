@@ -86,8 +86,8 @@ def test_speed_configs_follow_the_configured_steps(tmp_path):
                                            "lr": 1e-3}, "trainer": {"log_every_n_steps": 10}})
     cfgs = {c.name: c for c in speed.configs(defaults, quick=False, paper_steps=100)}
     assert list(cfgs) == ["fbp", "nct-x0.25", "nct-x0.5", "nct-default", "nct-x2", "nct-small", "nct-static",
-                          "nct-rigid", "nct-affine", "grid-x0.5", "grid", "grid-auto", "nct-auto", "paper-10steps",
-                          "paper-100steps"]
+                          "nct-rigid", "nct-affine", "nct-free", "grid-x0.5", "grid", "grid-auto", "nct-auto",
+                          "paper-10steps", "paper-100steps"]
     assert cfgs["grid-auto"].overrides == ("model=grid", "motion=auto")
     assert cfgs["nct-rigid"].overrides == ("motion=rigid",)
     assert cfgs["grid-x0.5"].overrides[:3] == ("model=grid", "optim.init_steps=150", "optim.fit_steps=400")
@@ -99,7 +99,7 @@ def test_speed_configs_follow_the_configured_steps(tmp_path):
                                "optim.refine_init_steps=100", "optim.refine_fit_steps=100")
     assert (paper.reference, paper.extrapolate_steps, paper.short, paper.n_seeds) == (True, 5000, "paper-10steps", 1)
     jobs = speed.plan(tmp_path, {"static": ("experiment=static",)}, list(cfgs.values()), [0, 1, 2])
-    assert len(jobs) == 13 * 3 + 2 and jobs[0].command()[3:5] == ["experiment=static", "logger=none"]
+    assert len(jobs) == 14 * 3 + 2 and jobs[0].command()[3:5] == ["experiment=static", "logger=none"]
 
 
 def speed_records(tmp_path: Path, default_dice: float, paper_dice: float) -> list[Record]:

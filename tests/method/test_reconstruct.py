@@ -215,7 +215,7 @@ def test_a_candidate_whose_fit_diverges_drops_out_and_the_tournament_goes_on(acq
     """Seen on a GPU: a band candidate diverged at step 100 after the free field had finished, and the
     whole run failed. Now it drops out, its restart joins at half the rates, and the rest is unchanged."""
     sino, times = acquisition
-    ladder = SelectionConf(rungs=["static", "free"])
+    ladder = SelectionConf(rungs=["static", "free"], still_ratio=0.0)
     honest = race_module.sinogram_fit
 
     def static_diverges(prob, session, net, name, *args, **kwargs):

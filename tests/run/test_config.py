@@ -51,7 +51,8 @@ def test_method_groups_keep_the_tuned_defaults():
     assert (conf.heldout.every, conf.heldout.run, conf.heldout.check_every) == (10, 1, 100)
     assert conf.trainer == TrainerArgs(name="cpu", accelerator="cpu") and conf.callbacks == CallbacksConf()
     assert (conf.motion.rungs, conf.motion.first_budget, conf.motion.tolerance, conf.motion.band_f_max,
-            conf.motion.band_min_rotations, conf.motion.milestone_margin) == (["free"], 0.25, 2 / 3, 0.5, 1.5, 0.05)
+            conf.motion.band_min_rotations, conf.motion.milestone_margin, conf.motion.still_ratio) == (
+        ["static", "free"], 0.25, 2 / 3, 0.5, 1.5, 0.05, 1.0)
 
 
 def test_fast_optim_halves_every_stage_and_its_schedule():

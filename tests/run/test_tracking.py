@@ -92,8 +92,8 @@ def test_run_hparams_types_and_leaves_out_hydra_and_deletions(tiny_cfg):
 def test_selection_is_in_metrics_selection_csv_and_tensorboard(tiny_cfg, run_dir):
     """motion.rungs [static, free]: metrics.json, selection.csv and TensorBoard all say which candidates
     were fitted, how far, and why one won."""
-    cfg = tiny_cfg("motion.rungs=[static,free]", "model=grid", "model.resolution=32", "model.temporal_resolution=8",
-                   "export.gif=false", "export.png=false", "export.tiff=false",
+    cfg = tiny_cfg("motion.rungs=[static,free]", "motion.still_ratio=0", "model=grid", "model.resolution=32",
+                   "model.temporal_resolution=8", "export.gif=false", "export.png=false", "export.tiff=false",
                    "optim.init_steps=20", "optim.fit_steps=20")
     run_job(cfg, run_dir)
     metrics = json.loads((run_dir / "metrics.json").read_text())
@@ -115,8 +115,8 @@ def test_selection_is_in_metrics_selection_csv_and_tensorboard(tiny_cfg, run_dir
 def test_phases_are_in_tensorboard_with_each_candidates_fit(tiny_cfg, run_dir):
     """Where the time went: a table as text, a row per candidate's stage under the fits, and a scalar per
     phase, the tournament split into fits (its stages' own time, metrics.json ``stages``) and selection."""
-    run_job(tiny_cfg("motion.rungs=[static,free]", "optim.init_steps=5", "optim.fit_steps=5", "export.gif=false",
-                     "export.png=false", "export.tiff=false"), run_dir)
+    run_job(tiny_cfg("motion.rungs=[static,free]", "motion.still_ratio=0", "optim.init_steps=5", "optim.fit_steps=5",
+                     "export.gif=false", "export.png=false", "export.tiff=false"), run_dir)
     metrics = json.loads((run_dir / "metrics.json").read_text())
     acc = EventAccumulator(str(run_dir / "tb"))
     acc.Reload()

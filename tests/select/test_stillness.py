@@ -1,5 +1,6 @@
 """select/stillness.py: a ladder of static and moving rungs fits static alone where the views' conjugates say
-nothing moves, and lists the rungs it left out; anything else keeps the ladder whole."""
+nothing moves and the moving rungs alone where they say something does, and lists the rungs it left out; where they
+cannot tell, or the rule is off, the ladder stays whole."""
 
 from __future__ import annotations
 
@@ -29,11 +30,23 @@ def test_a_still_scan_fits_the_static_rung_alone_and_says_why():
     assert replace(rungs.motion, rungs=AUTO.rungs) == AUTO  # only the rungs change
 
 
-@pytest.mark.parametrize("deg, motion", [(100.0, AUTO), (0.0, replace(AUTO, still_ratio=0.0)),
+@pytest.mark.parametrize("motion, kept", [(AUTO, ["rigid", "affine", "free"]),
+                                          (SelectionConf(rungs=["static", "free"]), ["free"])])
+def test_a_moving_scan_leaves_the_static_rung_out_and_says_why(motion, kept):
+    sino, _, _ = circle(100.0, views=180, size=48)
+    rungs = ladder(sino, motion)
+    assert rungs.motion.rungs == kept and rungs.left_out == ["static"]
+    (row,) = rungs.rows(Candidate(SceneModel(1), kept[0]))
+    assert row.rung == "static" and row.steps == 0 and "differ beyond their noise" in row.verdict
+    assert "something moves" in row.verdict
+
+
+@pytest.mark.parametrize("deg, motion", [(100.0, replace(AUTO, still_ratio=0.0)), (0.0, replace(AUTO, still_ratio=0.0)),
                                          (0.0, SelectionConf(rungs=["rigid", "free"])),
                                          (0.0, SelectionConf(rungs=["free"]))])
-def test_the_ladder_stays_whole_where_things_move_or_it_holds_no_choice(deg, motion):
-    """A moving disc, the rule turned off, a ladder without the static rung, one rung: nothing is left out."""
+def test_the_ladder_stays_whole_where_the_rule_is_off_or_it_holds_no_choice(deg, motion):
+    """The rule turned off (a moving and a still disc), a ladder without the static rung, one rung: nothing is left
+    out."""
     sino, _, _ = circle(deg, views=180, size=48)
     rungs = ladder(sino, motion)
     assert rungs.motion == motion and rungs.left_out == [] and rungs.rows(Candidate(SceneModel(1), "free")) == []

@@ -129,7 +129,7 @@ def reconstruct(
 
     Fitted in the method's units (fit/units.py), returned in the data's. Every candidate (a scene model:
     ``n_objects`` and ``background``, chosen from the data where None or auto (select/scene.py); ``motion.rungs``
-    x the starts, the static rung alone where the views say nothing moves: select/stillness.py) is fitted and scored
+    x the starts; the static rung or the moving ones, as the views say: select/stillness.py) is fitted and scored
     on the held-out views in one tournament (select/race.py); the winner is
     refined (``optim.refine``). ``background=image``: a static image under the objects (init/background.py).
     ``resume``: stages that finished before in ``log_dir`` are loaded from their checkpoints.

@@ -12,7 +12,8 @@ from nct.fields.conf import RUNGS
 
 @dataclass
 class SelectionConf:
-    """The tournament's settings (config group ``motion``: its options auto, static, rigid, affine, free).
+    """The tournament's settings (config group ``motion``: its options static_or_free, the default,
+    auto, static, rigid, affine, free).
 
     rungs: the motion models tried (RUNGS), or one of them (no tournament between rungs then).
     first_budget: share of a fit's steps at the schedule's first milestone (then twice, four times ...).
@@ -40,9 +41,10 @@ class SelectionConf:
         race costs time, never the result (the held-out views still choose), so it starts below the limit at which
         the run warns (suspect.fbp_ratio); 0: every winner races the next model, .inf: none does.
     still_ratio: a ladder of the static rung and moving ones fits static alone where the views' conjugate ratio
-        (moments/conjugates.py: conjugate views against their noise) is at most this: of the benchmarks' 118 scene
-        files no moving one reads under 1.03, 26 of 28 still ones under 1.0 (benchmarks/results/speed/conjugate_views);
-        the still experiment with motion=auto then takes a quarter of its time (select/stillness.py). 0: never.
+        (moments/conjugates.py: conjugate views against their noise) is at most this, the moving rungs alone above it
+        (select/stillness.py): of the benchmarks' 118 scene files no moving one reads under 1.03, 26 of 28 still ones
+        under 1.0 (benchmarks/results/speed/conjugate_views); the still experiment with motion=auto then takes a
+        quarter of its time, and the default ladder (static, free) fits a moving scan as motion=free does. 0: never.
     """
 
     rungs: list[str] = field(default_factory=lambda: ["free"])

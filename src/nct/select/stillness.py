@@ -1,6 +1,6 @@
 """The ladder a scan's views leave to fit: where their conjugate views agree to their noise
-(moments/conjugates.py), nothing moves, and a ladder holding the static rung fits it alone; the rungs left out
-are listed in selection.csv with why."""
+(moments/conjugates.py), nothing moves and a ladder holding the static rung fits it alone; where they differ beyond
+it, something moves and the static rung is not fitted. The rungs left out are listed in selection.csv with why."""
 
 from __future__ import annotations
 
@@ -34,16 +34,20 @@ class Ladder:
 
 
 def ladder(sino: Sinogram, motion: SelectionConf) -> Ladder:
-    """``motion``'s ladder for ``sino``: the static rung alone where it holds static and moving rungs and the views'
-    conjugate ratio is at most ``motion.still_ratio``; all of it otherwise (one rung, half a turn or less, a
-    ratio above)."""
+    """``motion``'s ladder for ``sino``, where it holds the static rung and moving ones, read off the views'
+    conjugate ratio: at most ``motion.still_ratio``, the static rung alone (nothing moves); above, the moving rungs
+    alone (something does). All of it where the views cannot tell (half a turn or less) or the rule is off."""
     if "static" not in motion.rungs or len(motion.rungs) == 1 or motion.still_ratio <= 0:
         return Ladder(motion)
     ratio = conjugate_ratio(sino)
-    if not ratio <= motion.still_ratio:  # NaN (under half a turn) too
+    if math.isnan(ratio):  # under half a turn: no conjugate pairs
         return Ladder(motion)
-    left_out = [r for r in motion.rungs if r != "static"]
+    still = ratio <= motion.still_ratio
+    kept = ["static"] if still else [r for r in motion.rungs if r != "static"]
+    left_out = [r for r in motion.rungs if r not in kept]
     why = (f"the views' conjugate pairs agree to their noise (ratio {ratio:.3g} <= motion.still_ratio "
-           f"{motion.still_ratio:g}): nothing moves")
-    log.info("motion: %s; %s not fitted (motion.still_ratio=0 fits them)", why, ", ".join(left_out))
-    return Ladder(replace(motion, rungs=["static"]), left_out, why)
+           f"{motion.still_ratio:g}): nothing moves" if still else
+           f"the views' conjugate pairs differ beyond their noise (ratio {ratio:.3g} > motion.still_ratio "
+           f"{motion.still_ratio:g}): something moves")
+    log.info("motion: %s; %s not fitted (motion.still_ratio=0 fits every rung)", why, ", ".join(left_out))
+    return Ladder(replace(motion, rungs=kept), left_out, why)
