@@ -107,6 +107,7 @@ def test_composition_errors_name_the_key(override, error, words):
         ("motion.fbp_ratio=-1", "motion.fbp_ratio must be >= 0"),
         ("motion.still_ratio=-1", "motion.still_ratio must be >= 0"),
         ("motion=auto heldout.every=1", "heldout.every must be >= 2"),
+        ("heldout.every=0", "compared on held-out views: heldout.every must be >= 2 (or one rung, e.g. motion=free)"),
         ("optim.lr=0", "optim.lr must be > 0"),
         ("optim.lr_decay=1.5", "optim.lr_decay must be in (0, 1]"),
         ("render.mu=1", "render.mu must be > 2"),

@@ -71,8 +71,8 @@ class NCTConf:
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
         if len(self.motion.rungs) > 1 and self.heldout.every < 2:
-            raise ValueError(f"motion.rungs {self.motion.rungs} are chosen between on held-out views: heldout.every "
-                             f"must be >= 2 (or one rung, e.g. motion=free), got {self.heldout.every}")
+            raise ValueError(f"motion.rungs {self.motion.rungs} are compared on held-out views: heldout.every must "
+                             f"be >= 2 (or one rung, e.g. motion=free), got {self.heldout.every}")
 
 
 CONFIG_MODULE = "nct.conf"  # the package holding the Hydra configs (pkg://nct.conf)
