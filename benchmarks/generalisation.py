@@ -130,11 +130,23 @@ class Outcome:
             return None
         return self.chosen["n_objects"] == len(self.scene.objects) and self.chosen["background"] == "none"
 
+    @property
+    def model_equivalent(self) -> bool | None:
+        """Whether the run fitted the scene's own model or one that draws the same objects: its moving ellipses as
+        the objects over a background image that holds its still ones (None: failed)."""
+        if not self.chosen:
+            return None
+        moving = sum(o.motion.kind != "static" for o in self.scene.objects)
+        held = (self.chosen["background"] == "image" and self.chosen["n_objects"] == moving
+                and 0 < moving < len(self.scene.objects))
+        return bool(self.model_right or held)
+
     def row(self) -> dict:
         """The scene's parameters, categories and both methods' scores, flat."""
         return {**self.scene.parameters(), **self.scene.categories(), **self.nested_dice(),
                 "nct_status": self.nct.status, "winner": self.winner, "chosen_k": self.chosen.get("n_objects"),
                 "chosen_background": self.chosen.get("background"), "model_right": self.model_right,
+                "model_equivalent": self.model_equivalent,
                 "nct_dice": self.nct.dice, "nct_mse": self.nct.mse,
                 "fbp_status": self.fbp.status, "fbp_dice": self.fbp.dice, "fbp_mse": self.fbp.mse,
                 "nct_minus_fbp": self.nct_dice - self.fbp_dice, "below_fbp": self.below_fbp,
@@ -295,11 +307,15 @@ def report(results: Sequence[Outcome], categories: Sequence[dict], checks: Accep
           o.nct.wall_time_s] for o in results])
     nested = [(o, o.nested_dice()) for o in results if o.scene.own_levels()]
     judged = [o for o in results if o.model_right is not None]
-    wrong = markdown_table(["scene", "objects", "chosen K", "chosen background", "NCT Dice", "FBP Dice"],
-                           [[o.scene.name, len(o.scene.objects), o.chosen["n_objects"], o.chosen["background"],
-                             o.nct_dice, o.fbp_dice] for o in judged if not o.model_right])
+    wrong = markdown_table(["scene", "motions", "chosen K", "chosen background", "still ones in the image",
+                            "NCT Dice", "FBP Dice", "NCT MSE", "FBP MSE"],
+                           [[o.scene.name, " ".join(m.motion.kind for m in o.scene.objects), o.chosen["n_objects"],
+                             o.chosen["background"], "yes" if o.model_equivalent else "no", o.nct_dice, o.fbp_dice,
+                             o.nct.mse, o.fbp.mse] for o in judged if not o.model_right])
     models = (f"The run fitted the scene's own model (one object per ellipse, no background) on "
-              f"{sum(o.model_right for o in judged)} of {len(judged)} finished runs; the others:")
+              f"{sum(o.model_right for o in judged)} of {len(judged)} finished runs, and its moving ellipses over "
+              f"an image holding the still ones on {sum(o.model_equivalent and not o.model_right for o in judged)} "
+              "more; the others:")
     per_nested = markdown_table(
         ["scene", "motions", "intensities", "FBP Dice at own level", "NCT Dice at own level"],
         [[o.scene.name, " ".join(m.motion.kind for m in o.scene.objects),

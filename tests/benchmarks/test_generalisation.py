@@ -124,10 +124,13 @@ def test_acceptance_counts_a_failed_nct_run_as_dice_zero_and_a_crash():
 
 def test_each_scene_and_family_reports_the_candidate_its_tournament_chose(tmp_path):
     """The winner and its scene model come from the run's table; a model of the scene's own objects on no
-    background is right, any other K or a background is reported as chosen wrong."""
-    scenes = [s for s in S.draw_scenes(0, 12) if s.moving][:2]
+    background is right; its moving objects over an image (which holds the still ones) draw the same objects; any
+    other K or a background is reported as chosen wrong."""
+    by_name = {s.name: s for s in S.draw_scenes(0, 12)}
+    # one rotating ellipse; a beating one and a still one; two moving and a still one
+    scenes = [by_name["scene002"], by_name["scene008"], by_name["scene004"]]
     runs = []
-    for i, (winner, k, background) in enumerate((("free_start1", len(scenes[0].objects), "none"),
+    for i, (winner, k, background) in enumerate((("free_start1", 1, "none"), ("k1_image_free", 1, "image"),
                                                  ("k1_image_free", 1, "image"))):
         (tmp_path / str(i)).mkdir()
         row = {"candidate": winner, "n_objects": k, "background": background}
@@ -135,12 +138,14 @@ def test_each_scene_and_family_reports_the_candidate_its_tournament_chose(tmp_pa
         runs.append(Record(job=Job({"scene": "s"}, "nct", 0, (), tmp_path / str(i)), status="ok", dice=0.9, mse=0.01))
     failed = G.Outcome(scenes[0], record("nct", "failed", math.nan), record("fbp", "ok", 0.9))
     results = [G.Outcome(s, r, record("fbp", "ok", 0.9)) for s, r in zip(scenes, runs)] + [failed]
-    assert [o.row()["winner"] for o in results] == ["free_start1", "k1_image_free", ""]
-    assert [o.row()["model_right"] for o in results] == [True, False, None]
+    assert [o.row()["winner"] for o in results] == ["free_start1", "k1_image_free", "k1_image_free", ""]
+    assert [o.row()["model_right"] for o in results] == [True, False, False, None]
+    assert [o.row()["model_equivalent"] for o in results] == [True, True, False, None]
     rows = {(r["category"], r["value"]): r for r in G.category_rows(results)}
-    assert rows["all", "all"]["winners"] == "free_start1:1 k1_image_free:1 none:1"
+    assert rows["all", "all"]["winners"] == "k1_image_free:2 free_start1:1 none:1"
     note = G.report(results, G.category_rows(results), G.acceptance(results), "cmd", 1.0)
-    assert "own model (one object per ellipse, no background) on 1 of 2 finished runs" in note
+    assert "own model (one object per ellipse, no background) on 1 of 3 finished runs" in note
+    assert "over an image holding the still ones on 1 more" in note
 
 
 def test_a_told_run_passes_the_scenes_model_and_a_users_run_nothing(tmp_path):
