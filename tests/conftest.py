@@ -28,6 +28,7 @@ figure lacks to explain itself.
 from __future__ import annotations
 
 import copy
+import csv
 import functools
 import importlib.util
 import sys
@@ -363,6 +364,15 @@ def siddon(image: np.ndarray, extent: float, start: np.ndarray, end: np.ndarray)
 
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def write_table(path: Path, columns: tuple, rows: list) -> Path:
+    """A CSV table at ``path`` with a header of ``columns`` and ``rows``, as a benchmark writes its tables."""
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(columns)
+        writer.writerows(rows)
+    return path
 
 
 def load_benchmark(path: str):

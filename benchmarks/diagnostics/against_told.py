@@ -8,7 +8,6 @@ of both over the scenes they share, the scene model each run chose, and what a m
 from __future__ import annotations
 
 import argparse
-import csv
 import statistics
 import sys
 from collections.abc import Sequence
@@ -16,16 +15,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from generalisation import MARGIN  # noqa: E402
+from patched_table import read_all  # noqa: E402
 
 from nct.run.tables import markdown_table  # noqa: E402
 
 LOSS = 0.005  # a Dice change beyond this is a loss or a gain (issue 47's bar: the median within it of told's)
-
-
-def read(path: Path) -> dict[str, dict[str, str]]:
-    """A generalisation table's rows by scene."""
-    with open(path, newline="") as fh:
-        return {row["scene"]: row for row in csv.DictReader(fh)}
 
 
 def summary(told: dict, chosen: dict) -> list[list]:
@@ -60,10 +54,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("chosen", type=Path, help="scenes.csv of a call with nothing passed")
     parser.add_argument("--out", type=Path, required=True, help="the markdown note to write")
     args = parser.parse_args(argv)
-    missing = [p for p in (args.told, args.chosen) if not p.is_file()]
-    if missing:
-        parser.error(f"no table at {missing[0]}")
-    told, chosen = read(args.told), read(args.chosen)
+    told, chosen = read_all(parser, args.told, args.chosen)
     if "model_right" not in next(iter(chosen.values()), {}):
         parser.error(f"{args.chosen} has no model_right column: not a call with nothing passed")
     command = "python benchmarks/diagnostics/against_told.py " + " ".join(sys.argv[1:] if argv is None else argv)

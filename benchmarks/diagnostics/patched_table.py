@@ -27,6 +27,14 @@ def read(path: Path) -> dict[str, dict[str, str]]:
         return {row["scene"]: row for row in csv.DictReader(fh)}
 
 
+def read_all(parser: argparse.ArgumentParser, *paths: Path) -> list[dict[str, dict[str, str]]]:
+    """Each of ``paths`` `read`, or the ``parser``'s one-line error naming the first that is not a file."""
+    missing = [p for p in paths if not p.is_file()]
+    if missing:
+        parser.error(f"no table at {missing[0]}")
+    return [read(p) for p in paths]
+
+
 def cell(text: str) -> float | str:
     """A table's text as a number where it is one (markdown_table then rounds it)."""
     try:
@@ -66,10 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("after", type=Path, help="the later call's scenes.csv (its scenes replace the base's)")
     parser.add_argument("--out", type=Path, required=True, help="folder for scenes.csv (patched) and README.md")
     args = parser.parse_args(argv)
-    missing = [p for p in (args.base, args.after) if not p.is_file()]
-    if missing:
-        parser.error(f"no table at {missing[0]}")
-    base, after = read(args.base), read(args.after)
+    base, after = read_all(parser, args.base, args.after)
     if not after.keys() <= base.keys():
         parser.error(f"scenes not in the base table: {' '.join(sorted(after.keys() - base.keys()))}")
     args.out.mkdir(parents=True, exist_ok=True)
