@@ -1,6 +1,6 @@
 """A generalisation call with nothing passed against one told each scene's model (issue 47, bar 2): the median Dice
-of both over the scenes they share, the scene model each run chose, and what a model other than the truth's cost
-(Dice and MSE against the told run's and FBP's), from the two calls' ``scenes.csv``.
+of both over the scenes they share (a failed run's 0), the scene model each run chose, and what a model other than
+the truth's cost (Dice and MSE against the told run's and FBP's), from the two calls' ``scenes.csv``.
 
     python benchmarks/diagnostics/against_told.py TOLD/scenes.csv NOTHING_PASSED/scenes.csv --out FILE.md
 """
@@ -22,14 +22,19 @@ from nct.run.tables import markdown_table  # noqa: E402
 LOSS = 0.005  # a Dice change beyond this is a loss or a gain (issue 47's bar: the median within it of told's)
 
 
+def dice(row: dict[str, str]) -> float:
+    """A row's NeuralCT Dice, a failed run's 0 (as the benchmark counts it)."""
+    return float(row["nct_dice"]) if row["nct_status"] == "ok" else 0.0
+
+
 def summary(told: dict, chosen: dict) -> list[list]:
     """The shared scenes' medians, losses and gains over LOSS, scenes below FBP - MARGIN, and the models chosen."""
     shared = [s for s in chosen if s in told]
-    change = {s: float(chosen[s]["nct_dice"]) - float(told[s]["nct_dice"]) for s in shared}
-    below = [s for s in shared if float(chosen[s]["nct_dice"]) < float(chosen[s]["fbp_dice"]) - MARGIN]
+    change = {s: dice(chosen[s]) - dice(told[s]) for s in shared}
+    below = [s for s in shared if dice(chosen[s]) < float(chosen[s]["fbp_dice"]) - MARGIN]
     right = sum(chosen[s]["model_right"] == "True" for s in shared)
     held = sum(chosen[s].get("model_equivalent") == "True" for s in shared) - right
-    medians = [statistics.median(float(table[s]["nct_dice"]) for s in shared) for table in (chosen, told)]
+    medians = [statistics.median(dice(table[s]) for s in shared) for table in (chosen, told)]
     return [["scenes", len(shared)],
             ["median Dice, nothing passed / told", " / ".join(f"{m:.4f}" for m in medians)],
             [f"losses / gains over {LOSS:g}", f"{sum(c < -LOSS for c in change.values())} / "
@@ -42,8 +47,7 @@ def summary(told: dict, chosen: dict) -> list[list]:
 def differing(told: dict, chosen: dict) -> list[list]:
     """One row per shared scene whose run chose a model other than the truth's: what it chose and what it cost."""
     return [[s, r["motions"], r["winner"], r["chosen_k"], r["chosen_background"],
-             f"{float(r['nct_dice']) - float(told[s]['nct_dice']):+.4f}",
-             float(r["nct_dice"]), float(told[s]["nct_dice"]), float(r["fbp_dice"]), float(r["nct_mse"]),
+             f"{dice(r) - dice(told[s]):+.4f}", dice(r), dice(told[s]), float(r["fbp_dice"]), float(r["nct_mse"]),
              float(told[s]["nct_mse"]), float(r["fbp_mse"])]
             for s, r in sorted(chosen.items()) if s in told and r["model_right"] != "True"]
 
