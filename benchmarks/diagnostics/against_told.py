@@ -31,7 +31,7 @@ def summary(told: dict, chosen: dict) -> list[list]:
     """The shared scenes' medians, losses and gains over LOSS, scenes below FBP - MARGIN, and the models chosen."""
     shared = [s for s in chosen if s in told]
     change = {s: dice(chosen[s]) - dice(told[s]) for s in shared}
-    below = [s for s in shared if dice(chosen[s]) < float(chosen[s]["fbp_dice"]) - MARGIN]
+    below = [s for s in shared if chosen[s]["below_fbp"] == "True"]  # the benchmark's verdict (generalisation.py)
     right = sum(chosen[s]["model_right"] == "True" for s in shared)
     held = sum(chosen[s].get("model_equivalent") == "True" for s in shared) - right
     medians = [statistics.median(dice(table[s]) for s in shared) for table in (chosen, told)]

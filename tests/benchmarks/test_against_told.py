@@ -7,7 +7,7 @@ from tests.conftest import load_benchmark, write_table
 A = load_benchmark("diagnostics/against_told")
 P = load_benchmark("diagnostics/patched_table")  # the tables' reader
 TOLD = ("scene", "motions", "winner", "nct_status", "nct_dice", "nct_mse", "fbp_dice", "fbp_mse")
-CHOSEN = (*TOLD, "chosen_k", "chosen_background", "model_right", "model_equivalent")
+CHOSEN = (*TOLD, "chosen_k", "chosen_background", "model_right", "model_equivalent", "below_fbp")
 
 
 def test_the_shared_scenes_are_summarised_and_each_other_model_costed(tmp_path):
@@ -17,10 +17,10 @@ def test_the_shared_scenes_are_summarised_and_each_other_model_costed(tmp_path):
                         ("s2", "static static", "free", "ok", 0.995, 2e-5, 0.99, 1e-3),
                         ("s9", "orbit", "free", "ok", 0.9, 1e-3, 0.8, 1e-2),
                         ("s3", "static", "free", "diverged", "nan", "nan", 0.99, 1e-3)])
-    rows = [("s0", "beat static", "k1_image_free", "ok", 0.997, 3e-5, 0.98, 1e-3, 1, "image", False, True),
-            ("s1", "rotation", "free", "ok", 0.999, 1e-5, 0.99, 1e-3, 1, "none", True, True),
-            ("s2", "static static", "k1_none_static", "ok", 0.970, 9e-4, 0.99, 1e-3, 1, "none", False, False),
-            ("s3", "static", "static", "ok", 0.995, 1e-5, 0.99, 1e-3, 1, "none", True, True)]
+    rows = [("s0", "beat static", "k1_image_free", "ok", 0.997, 3e-5, 0.98, 1e-3, 1, "image", False, True, False),
+            ("s1", "rotation", "free", "ok", 0.999, 1e-5, 0.99, 1e-3, 1, "none", True, True, False),
+            ("s2", "static static", "k1_none_static", "ok", 0.970, 9e-4, 0.99, 1e-3, 1, "none", False, False, True),
+            ("s3", "static", "static", "ok", 0.995, 1e-5, 0.99, 1e-3, 1, "none", True, True, False)]
     chosen = write_table(tmp_path / "chosen.csv", CHOSEN, rows)
     assert A.main([str(told), str(chosen), "--out", str(tmp_path / "note.md")]) == 0
     summary = dict(A.summary(P.read(told), P.read(chosen)))
